@@ -1,0 +1,40 @@
+"""tension_opt: cable-tension distribution for cable-driven parallel robots.
+
+Tension distribution posed as interchangeable convex problems (minimum sum, minimum
+norm, pseudo-inverse, min-max, centred, smoothed), solved by exact closed forms,
+cvxpy, qpsolvers or scipy/HiGHS, over batches of poses.
+"""
+
+from tension_opt import presets
+from tension_opt.backends import available_backends, get_backend
+from tension_opt.distribute import distribute
+from tension_opt.errors import (
+    BackendNotAvailableError,
+    InvalidInputError,
+    SolverError,
+    TensionOptError,
+    UnsupportedProblemError,
+)
+from tension_opt.problems import Objective, TensionProblem
+from tension_opt.robot import CableProperties, CableRobot
+from tension_opt.solution import Status, TensionSolution
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "BackendNotAvailableError",
+    "CableProperties",
+    "CableRobot",
+    "InvalidInputError",
+    "Objective",
+    "SolverError",
+    "Status",
+    "TensionOptError",
+    "TensionProblem",
+    "TensionSolution",
+    "UnsupportedProblemError",
+    "available_backends",
+    "distribute",
+    "get_backend",
+    "presets",
+]

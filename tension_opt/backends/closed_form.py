@@ -1,0 +1,156 @@
+"""Exact closed-form backend for null-space dimension 1 and 2 (``m = n + 1``, ``m = n + 2``).
+
+Tensions are written ``T = T_pinv + Z z`` with ``Z`` a basis of the null space of the
+structure matrix. In one dimension every objective is a function of a scalar ``t`` on an
+interval; in two dimensions the feasible set is a polygon and the optimum lies at the free
+minimum, on an edge line or at a vertex. Both are enumerated for all poses at once.
+For the common 3 x 4 case (a point-mass robot with four cables) the null vector comes
+from the generalised cross product, so no matrix factorisation is needed.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tension_opt.backends import _lowdim
+from tension_opt.backends.base import Backend, RawResult, register
+from tension_opt.problems import StandardForm
+from tension_opt.solution import Status, status_array
+
+
+def _det3(a: NDArray, b: NDArray, c: NDArray) -> NDArray:
+    """Determinant of the 3 x 3 matrices with columns a, b, c (each (N, 3))."""
+    return (a[:, 0] * (b[:, 1] * c[:, 2] - b[:, 2] * c[:, 1])
+            - a[:, 1] * (b[:, 0] * c[:, 2] - b[:, 2] * c[:, 0])
+            + a[:, 2] * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0]))
+
+
+def pinv_and_null(A: NDArray, b: NDArray) -> tuple[NDArray, NDArray]:
+    """Minimum-norm solution of ``A T = b`` and an orthonormal null-space basis.
+
+    Parameters
+    ----------
+    A : ndarray, shape (N, n, m)
+    b : ndarray, shape (N, n)
+
+    Returns
+    -------
+    T_pinv : ndarray, shape (N, m)
+    Z : ndarray, shape (N, m, m - n)
+        Assumes ``A`` has full row rank.
+    """
+    N, n, m = A.shape
+    if (n, m) == (3, 4):
+        u = [A[:, :, i] for i in range(4)]
+        null = np.stack([_det3(u[1], u[2], u[3]), -_det3(u[0], u[2], u[3]),
+                         _det3(u[0], u[1], u[3]), -_det3(u[0], u[1], u[2])], axis=1)
+        null /= np.linalg.norm(null, axis=1, keepdims=True)
+        # A particular solution through the 3 x 3 normal matrix, then projected off the null
+        # vector: the projection removes the rounding of the normal-equation solve.
+        M = np.einsum("nik,njk->nij", A, A)
+        y = np.linalg.solve(M, b[..., None])[..., 0]
+        T = np.einsum("nik,ni->nk", A, y)
+        T -= np.einsum("nk,nk->n", T, null)[:, None] * null
+        return T, null[..., None]
+    U, s, Vt = np.linalg.svd(A, full_matrices=True)
+    T = np.einsum("nki,nk,nk->ni", Vt[:, :n, :], 1.0 / s, np.einsum("nik,ni->nk", U, b))
+    return T, np.swapaxes(Vt[:, n:, :], 1, 2)
+
+
+class ClosedFormBackend(Backend):
+    """Exact, vectorised solutions where the null space has dimension 1 or 2."""
+
+    name = "closed_form"
+    exact = True
+
+    @property
+    def version(self) -> str:
+        return f"numpy {np.__version__}"
+
+    def unsupported(self, form: StandardForm) -> str | None:
+        r = form.m - form.n
+        if r not in (1, 2):
+            return (f"closed_form needs a null space of dimension 1 or 2 (m - n = {r}); "
+                    "use cvxpy, qpsolvers or scipy:highs")
+        if form.G is not None:
+            return "closed_form does not take extra inequality rows"
+        if form.kind == "minmax_qp" or (form.kind == "minmax" and r == 2):
+            return ("closed_form solves min-max only for null-space dimension 1 and without "
+                    "smoothing; use cvxpy or qpsolvers")
+        return None
+
+    def solve(self, form: StandardForm, **options: Any) -> RawResult:
+        t0 = time.perf_counter()
+        T0, Z = pinv_and_null(form.A, form.b)
+        scale = form.scale()
+        if Z.shape[2] == 1:
+            T, status, unique, infeas = self._solve_1d(form, T0, Z[..., 0], scale)
+        else:
+            T, status, unique, infeas = self._solve_2d(form, T0, Z, scale)
+        elapsed = time.perf_counter() - t0
+        return RawResult(T, status, np.zeros(form.N, dtype=int), 0.0, elapsed, unique, infeas)
+
+    def _solve_1d(self, form: StandardForm, T0: NDArray, n: NDArray, scale: NDArray
+                  ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        lb, ub = form.lb, form.ub
+        lo, hi = _lowdim.interval(T0, n, lb, ub, scale)
+        lo, hi = _lowdim.widen(lo, hi, n, scale)
+        feasible = lo <= hi
+        unique = np.ones(form.N, dtype=bool)
+        kind = form.kind
+        if kind == "qp":
+            curvature = np.einsum("nm,nm,nm->n", form.q, n, n)
+            t = -np.einsum("nm,nm->n", form.q * T0 + form.c, n) / curvature
+            t = np.clip(t, lo, hi)
+        elif kind == "lp":
+            slope = np.einsum("nm,nm->n", form.c, n)
+            flat = np.abs(slope) <= _lowdim.FLAT_TOL * np.linalg.norm(form.c, axis=1)
+            t = np.where(slope > 0, lo, hi)
+            # Tied optimum (zero slope): minimum 2-norm on the whole interval.
+            t_norm = np.clip(-np.einsum("nm,nm->n", T0, n), lo, hi)
+            t = np.where(flat, t_norm, t)
+            unique = ~flat | (lo == hi)
+        else:  # min-max: minimise max_i v_i (T0_i + t n_i)
+            v = form.minmax
+            t, fstar = _lowdim.min_of_max_lines(v * n, v * T0, lo, hi)
+            # The optimal set {t : v_i T_i(t) <= f*} is an interval; take its min-norm point.
+            tol = _lowdim.FEAS_TOL * (np.abs(fstar) + scale)
+            cap = (fstar + tol)[:, None] / v
+            olo, ohi = _lowdim.interval(T0, n, lb, np.minimum(ub, cap), scale)
+            olo, ohi = np.maximum(olo, lo), np.minimum(ohi, hi)
+            width_ok = ohi - olo > 10 * tol / np.abs(n).max(axis=1).clip(1e-300)
+            t_norm = np.clip(-np.einsum("nm,nm->n", T0, n), olo, ohi)
+            t = np.where(width_ok & np.isfinite(t_norm), t_norm, t)
+            unique = ~width_ok
+        unbounded = feasible & ~np.isfinite(t)
+        T = T0 + t[:, None] * n
+        status = status_array(form.N)
+        status[~feasible] = Status.INFEASIBLE
+        status[unbounded] = Status.UNBOUNDED
+        T[~feasible | unbounded] = np.nan
+        infeas = np.full(form.N, np.nan)
+        if (~feasible).any():
+            bad = ~feasible
+            infeas[bad] = _lowdim.infeasibility_1d(T0[bad], n[bad], lb[bad], ub[bad])
+        return T, status, unique & feasible | ~feasible, infeas
+
+    def _solve_2d(self, form: StandardForm, T0: NDArray, Z: NDArray, scale: NDArray
+                  ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        if form.kind == "qp":
+            z, feasible = _lowdim.qp_2d(T0, Z, form.lb, form.ub, form.q, form.c, scale)
+            unique = np.ones(form.N, dtype=bool)
+        else:
+            z, feasible, unique, _ = _lowdim.lp_2d(T0, Z, form.lb, form.ub, form.c, scale)
+            unique |= ~feasible
+        T = T0 + np.einsum("nmi,ni->nm", Z, z)
+        status = status_array(form.N)
+        status[~feasible] = Status.INFEASIBLE
+        T[~feasible] = np.nan
+        return T, status, unique, np.full(form.N, np.nan)
+
+
+register("closed_form", lambda solver: ClosedFormBackend(), lambda: ["closed_form"])

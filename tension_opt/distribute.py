@@ -1,0 +1,168 @@
+"""The main entry point: :func:`distribute` tensions over a batch of poses."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from tension_opt.backends.base import Backend, RawResult, available_backends, get_backend
+from tension_opt.errors import InvalidInputError, UnsupportedProblemError
+from tension_opt.problems import Objective, StandardForm, TensionProblem, as_problem
+from tension_opt.robot import CableRobot
+from tension_opt.solution import Status, TensionSolution
+
+# Preference of backend="auto": exact first, then the fastest iterative solvers.
+_AUTO_ORDER = ("closed_form", "qpsolvers:daqp", "qpsolvers:proxsuite", "qpsolvers:piqp",
+               "qpsolvers:highs", "scipy:highs", "cvxpy:CLARABEL", "cvxpy")
+
+
+def distribute(
+    robot: CableRobot,
+    poses: ArrayLike,
+    objective: str | Objective | TensionProblem = "min_sum",
+    backend: str | Backend = "auto",
+    wrench: ArrayLike | None = None,
+    previous: ArrayLike | None = None,
+    **options: Any,
+) -> TensionSolution:
+    """Distribute cable tensions over a batch of poses.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    poses : array_like, shape (N, n) or (n,)
+        Platform poses (see :mod:`tension_opt.robot` for the coordinates).
+    objective : str or TensionProblem
+        ``"min_sum"``, ``"min_norm"``, ``"pinv"``, ``"min_max"``, ``"centered"`` or a
+        :class:`~tension_opt.problems.TensionProblem` (weights, bounds, smoothing ...).
+    backend : str or Backend
+        ``"auto"`` (the fastest exact backend that supports the problem),
+        ``"closed_form"``, ``"cvxpy"``, ``"cvxpy:CLARABEL"``, ``"qpsolvers:daqp"``,
+        ``"scipy:highs"``, ...; see :func:`tension_opt.available_backends`.
+    wrench : array_like, shape (n,) or (N, n), optional
+        External wrench on the platform besides gravity (N, N m).
+    previous : array_like, shape (m,) or (N, m), optional
+        For smoothed or rate-limited problems. Shape (N, m): the previous tensions of
+        each pose, solved independently. Shape (m,) or None: the poses are a sequence,
+        solved in order, each against the solution of the pose before (the first
+        against ``previous``, or unsmoothed when None).
+    **options
+        Passed to the backend (e.g. ``accuracy="high"``, ``time_limit``).
+
+    Returns
+    -------
+    TensionSolution
+        Per-pose tensions (N, m), status, uniqueness, objective and residuals.
+    """
+    problem = as_problem(objective)
+    p = robot.as_poses(poses)
+    t0 = time.perf_counter()
+    A = robot.structure_matrices(p)
+    b = robot.required_wrench(p, wrench)
+    geometry_time = time.perf_counter() - t0
+    chosen = _resolve(backend, problem, robot)
+    prev = None if previous is None else np.asarray(previous, dtype=float)
+    if problem.is_sequential and (prev is None or prev.ndim == 1):
+        raw, lb, ub, prevs = _solve_sequence(chosen, problem, robot, A, b, prev, options)
+    else:
+        form = problem.standard_form_from(robot, A, b, prev)
+        _check_supported(chosen, form)
+        raw = chosen.solve(form, **options)
+        lb, ub, prevs = form.lb, form.ub, form.previous
+    raw.setup_time += geometry_time
+    return _finish(raw, problem, chosen, A, b, lb, ub, prevs)
+
+
+def _resolve(backend: str | Backend, problem: TensionProblem, robot: CableRobot) -> Backend:
+    if isinstance(backend, Backend):
+        return backend
+    if backend != "auto":
+        return get_backend(backend)
+    installed = set(available_backends())
+    probe = problem.standard_form_from(
+        robot, np.zeros((1, robot.dof, robot.m)) + np.eye(robot.dof, robot.m),
+        np.zeros((1, robot.dof)), None if not problem.is_sequential else np.zeros(robot.m))
+    for name in _AUTO_ORDER:
+        if name in installed:
+            candidate = get_backend(name)
+            if candidate.unsupported(probe) is None:
+                return candidate
+    raise UnsupportedProblemError(f"no installed backend supports {problem.name}")
+
+
+def _check_supported(backend: Backend, form: StandardForm) -> None:
+    reason = backend.unsupported(form)
+    if reason is not None:
+        able = [n for n in available_backends()
+                if get_backend(n).unsupported(form) is None]
+        raise UnsupportedProblemError(f"{reason} (backends that can: {able})")
+
+
+def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot, A: NDArray,
+                    b: NDArray, previous: NDArray | None, options: dict[str, Any]
+                    ) -> tuple[RawResult, NDArray, NDArray, NDArray]:
+    """Solve poses in order, each smoothed against the previous solution.
+
+    The chain is sequential by nature (pose k needs the answer of pose k - 1).
+    """
+    N, _, m = A.shape
+    unsmoothed = problem.with_(smoothing=0.0, rate_limit=None)
+    tensions = np.full((N, m), np.nan)
+    status = np.empty(N, dtype=object)
+    iterations: NDArray | None = np.zeros(N, dtype=int)
+    unique = np.ones(N, dtype=bool)
+    lbs, ubs, prevs = np.empty((N, m)), np.empty((N, m)), np.full((N, m), np.nan)
+    setup = solve = 0.0
+    last = previous
+    for k in range(N):
+        if last is None or not np.isfinite(last).all():
+            form = unsmoothed.standard_form_from(robot, A[k:k + 1], b[k:k + 1])
+        else:
+            form = problem.standard_form_from(robot, A[k:k + 1], b[k:k + 1], last)
+            prevs[k] = last
+        if k == 0:
+            _check_supported(backend, form)
+        raw = backend.solve(form, **options)
+        tensions[k], status[k] = raw.tensions[0], raw.status[0]
+        unique[k] = True if raw.unique is None else raw.unique[0]
+        if iterations is not None and raw.iterations is not None:
+            iterations[k] = raw.iterations[0]
+        else:
+            iterations = None
+        lbs[k], ubs[k] = form.lb[0], form.ub[0]
+        setup += raw.setup_time
+        solve += raw.solve_time
+        if status[k] is Status.OPTIMAL:
+            last = tensions[k]
+    result = RawResult(tensions, status, iterations, setup, solve, unique)
+    return result, lbs, ubs, prevs
+
+
+def _finish(raw: RawResult, problem: TensionProblem, backend: Backend, A: NDArray, b: NDArray,
+            lb: NDArray, ub: NDArray, previous: NDArray | None) -> TensionSolution:
+    T = np.asarray(raw.tensions, dtype=float)
+    status = np.asarray(raw.status, dtype=object)
+    solved = np.array([s is Status.OPTIMAL or s is Status.INACCURATE for s in status])
+    T[~solved] = np.nan
+    residual = np.linalg.norm(np.einsum("nij,nj->ni", A, T) - b, axis=1)
+    violation = np.maximum(np.nanmax(np.maximum(lb - T, T - ub), axis=1, initial=0.0), 0.0)
+    violation[~solved] = np.nan
+    prev = None if previous is None else np.where(np.isfinite(previous), previous, T)
+    objective = problem.evaluate(T, lb, ub, prev)
+    unique = np.ones(len(T), dtype=bool) if raw.unique is None else np.asarray(raw.unique)
+    infeas = raw.infeasibility if raw.infeasibility is not None else np.full(len(T), np.nan)
+    return TensionSolution(
+        tensions=T, status=status, unique=unique, objective=objective, residual=residual,
+        bound_violation=violation, iterations=raw.iterations, infeasibility=infeas,
+        setup_time=raw.setup_time, solve_time=raw.solve_time, backend=backend.name,
+        solver=backend.solver, solver_version=backend.version, problem=problem,
+        extras=raw.extras,
+    )
+
+
+def _validate_previous(previous: ArrayLike | None, m: int) -> None:
+    if previous is not None and np.shape(previous)[-1] != m:
+        raise InvalidInputError(f"previous must have shape ({m},) or (N, {m})")

@@ -1,0 +1,378 @@
+"""Tension-distribution problems as data.
+
+A :class:`TensionProblem` says *what* to optimise; :meth:`TensionProblem.standard_form`
+turns it, for a robot and a batch of poses, into a :class:`StandardForm` that every
+backend understands::
+
+    minimise   1/2 sum_i q_i T_i^2 + c^T T  [+ max_i v_i T_i]
+    subject to A T = b,  lb <= T <= ub,  G T <= h
+
+with a diagonal Hessian ``q >= 0``. Objectives:
+
+=============  ===============================================  ==========
+objective      minimises                                        form
+=============  ===============================================  ==========
+``min_sum``    ``sum_i w_i T_i``                                LP
+``min_norm``   ``sum_i w_i (T_i - r_i)^2`` (r = reference or 0)  QP
+``pinv``       ``sum_i T_i^2`` without bounds                    QP
+``min_max``    ``max_i w_i T_i``                                LP (epigraph)
+``centered``   ``sum_i w_i (T_i - (t_min_i + t_max_i)/2)^2``    QP
+=============  ===============================================  ==========
+
+Smoothing for sequences adds ``smoothing * ||T - T_prev||^2`` to the objective; a
+rate limit ``|T - T_prev| <= rate_limit`` tightens the bounds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from enum import Enum
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from tension_opt.errors import InvalidInputError
+from tension_opt.robot import CableRobot
+
+
+class Objective(str, Enum):
+    """Objective of a tension-distribution problem."""
+
+    MIN_SUM = "min_sum"
+    MIN_NORM = "min_norm"
+    PINV = "pinv"
+    MIN_MAX = "min_max"
+    CENTERED = "centered"
+
+
+@dataclass(frozen=True, eq=False)
+class TensionProblem:
+    """A tension-distribution problem (objective, bounds and smoothing terms).
+
+    Parameters
+    ----------
+    objective : Objective or str
+        One of ``"min_sum"``, ``"min_norm"``, ``"pinv"``, ``"min_max"``, ``"centered"``.
+    weights : array_like, shape (m,), optional
+        Positive per-cable weights of the objective (default ones).
+    reference : array_like, shape (m,) or (N, m), optional
+        Reference tension of ``min_norm`` (N): minimise the distance to it.
+    t_min, t_max : float or array_like, shape (m,) or (N, m), optional
+        Bounds (N) replacing the robot's own; scalar, per cable or per pose.
+    smoothing : float
+        Weight of the penalty ``||T - T_prev||^2`` (dimensionless, relative to the
+        objective's own quadratic weight; for ``min_sum`` it is in 1/N).
+    rate_limit : float or array_like, shape (m,), optional
+        Largest change of each tension from the previous one (N).
+    tie_break : bool
+        Break non-unique optima (LP objectives) to the minimum 2-norm among the optima.
+    """
+
+    objective: Objective | str = Objective.MIN_SUM
+    weights: NDArray | None = None
+    reference: NDArray | None = None
+    t_min: NDArray | float | None = None
+    t_max: NDArray | float | None = None
+    smoothing: float = 0.0
+    rate_limit: NDArray | float | None = None
+    tie_break: bool = True
+
+    def __post_init__(self) -> None:
+        try:
+            objective = Objective(self.objective)
+        except ValueError:
+            raise InvalidInputError(
+                f"unknown objective {self.objective!r}; choose one of "
+                f"{[o.value for o in Objective]}"
+            ) from None
+        object.__setattr__(self, "objective", objective)
+        if self.weights is not None:
+            weights = np.asarray(self.weights, dtype=float)
+            if weights.ndim != 1 or not np.isfinite(weights).all() or (weights <= 0).any():
+                raise InvalidInputError(f"weights must be positive and finite, got {weights}")
+            object.__setattr__(self, "weights", weights)
+        if not np.isfinite(self.smoothing) or self.smoothing < 0:
+            raise InvalidInputError(f"smoothing must be >= 0, got {self.smoothing!r}")
+        if self.rate_limit is not None:
+            rate = np.asarray(self.rate_limit, dtype=float)
+            if np.isnan(rate).any() or (rate <= 0).any():
+                raise InvalidInputError(f"rate_limit must be positive, got {rate}")
+            object.__setattr__(self, "rate_limit", rate)
+        if self.objective is Objective.PINV and (
+            self.t_min is not None or self.t_max is not None or self.rate_limit is not None
+        ):
+            raise InvalidInputError("the pseudo-inverse ignores bounds: use min_norm with bounds")
+
+    # ----------------------------------------------------------------- naming
+    @property
+    def name(self) -> str:
+        """Short label, e.g. ``"min_sum"`` or ``"min_sum+smooth(1e-3)"``."""
+        label = self.objective.value  # type: ignore[union-attr]
+        if self.smoothing:
+            label += f"+smooth({self.smoothing:g})"
+        if self.rate_limit is not None:
+            label += f"+rate({np.max(self.rate_limit):g})"
+        return label
+
+    @property
+    def is_sequential(self) -> bool:
+        """True if the problem couples a pose to the previous solution."""
+        return bool(self.smoothing) or self.rate_limit is not None
+
+    @property
+    def is_linear(self) -> bool:
+        """True if the problem is an LP (its optimum may be non-unique)."""
+        return (
+            self.objective in (Objective.MIN_SUM, Objective.MIN_MAX) and not self.smoothing
+        )
+
+    def with_(self, **changes: Any) -> TensionProblem:
+        """Copy with some fields replaced."""
+        return replace(self, **changes)
+
+    # ---------------------------------------------------------------- bounds
+    def bounds(self, robot: CableRobot, N: int) -> tuple[NDArray, NDArray]:
+        """Lower and upper tension bounds per pose, each of shape (N, m) (N)."""
+        m = robot.m
+        if self.objective is Objective.PINV:
+            return np.full((N, m), -np.inf), np.full((N, m), np.inf)
+        lb = _per_pose("t_min", robot.t_min if self.t_min is None else self.t_min, N, m)
+        ub = _per_pose("t_max", robot.t_max if self.t_max is None else self.t_max, N, m)
+        if np.isnan(lb).any() or np.isinf(lb).any():
+            raise InvalidInputError("t_min must be finite")
+        if np.isnan(ub).any() or np.isneginf(ub).any():
+            raise InvalidInputError("t_max must be a number or +inf")
+        if (lb > ub).any():
+            k, i = (int(v) for v in np.argwhere(lb > ub)[0])
+            raise InvalidInputError(
+                f"t_min = {lb[k, i]} exceeds t_max = {ub[k, i]} for cable {i} at pose {k}"
+            )
+        return lb, ub
+
+    def _weights(self, m: int) -> NDArray:
+        if self.weights is None:
+            return np.ones(m)
+        if self.weights.shape != (m,):
+            raise InvalidInputError(f"weights must have shape ({m},), got {self.weights.shape}")
+        return self.weights
+
+    # --------------------------------------------------------- standard form
+    def standard_form(
+        self,
+        robot: CableRobot,
+        poses: ArrayLike,
+        wrench: ArrayLike | None = None,
+        previous: ArrayLike | None = None,
+    ) -> StandardForm:
+        """Instantiate the problem for a batch of poses.
+
+        Parameters
+        ----------
+        robot : CableRobot
+        poses : array_like, shape (N, n)
+        wrench : array_like, shape (n,) or (N, n), optional
+            External wrench on the platform besides gravity.
+        previous : array_like, shape (m,) or (N, m), optional
+            Previous tensions of each pose (N), needed by smoothing and rate limits.
+        """
+        p = robot.as_poses(poses)
+        A = robot.structure_matrices(p)
+        b = robot.required_wrench(p, wrench)
+        return self.standard_form_from(robot, A, b, previous)
+
+    def standard_form_from(
+        self,
+        robot: CableRobot,
+        A: NDArray,
+        b: NDArray,
+        previous: ArrayLike | None = None,
+    ) -> StandardForm:
+        """Like :meth:`standard_form` from structure matrices ``A`` (N, n, m) and ``b`` (N, n)."""
+        N, _, m = A.shape
+        lb, ub = self.bounds(robot, N)
+        w = self._weights(m)
+        q = np.zeros((N, m))
+        c = np.zeros((N, m))
+        minmax = None
+        obj = self.objective
+        if obj is Objective.MIN_SUM:
+            c[:] = w
+        elif obj is Objective.MIN_MAX:
+            minmax = w
+        elif obj is Objective.PINV:
+            q[:] = 2.0
+        else:
+            if obj is Objective.CENTERED:
+                if not np.isfinite(ub).all():
+                    raise InvalidInputError(
+                        "the centred objective needs finite t_max for every cable"
+                    )
+                ref = 0.5 * (lb + ub)
+            elif self.reference is not None:
+                ref = _per_pose("reference", self.reference, N, m)
+            else:
+                ref = np.zeros((N, m))
+            q[:] = 2.0 * w
+            c[:] = -2.0 * w * ref
+        prev = None
+        if self.is_sequential:
+            if previous is None:
+                raise InvalidInputError(
+                    f"problem {self.name} needs the previous tensions (argument 'previous')"
+                )
+            prev = _per_pose("previous", previous, N, m)
+            if not np.isfinite(prev).all():
+                raise InvalidInputError("previous tensions must be finite")
+            if self.smoothing:
+                q += 2.0 * self.smoothing
+                c += -2.0 * self.smoothing * prev
+            if self.rate_limit is not None:
+                rate = np.broadcast_to(self.rate_limit, (m,))
+                lb = np.maximum(lb, prev - rate)
+                ub = np.minimum(ub, prev + rate)
+        return StandardForm(A=A, b=b, lb=lb, ub=ub, q=q, c=c, minmax=minmax, problem=self,
+                            previous=prev)
+
+    def evaluate(self, tensions: NDArray, lb: NDArray, ub: NDArray,
+                 previous: NDArray | None = None) -> NDArray:
+        """Objective value of tensions (N, m) as the problem defines it (no constants dropped)."""
+        T = np.asarray(tensions, dtype=float)
+        w = self._weights(T.shape[1])
+        obj = self.objective
+        if obj is Objective.MIN_SUM:
+            value = T @ w
+        elif obj is Objective.MIN_MAX:
+            value = (T * w).max(axis=1)
+        elif obj is Objective.PINV:
+            value = (T**2).sum(axis=1)
+        else:
+            if obj is Objective.CENTERED:
+                ref = 0.5 * (lb + ub)
+            elif self.reference is not None:
+                ref = np.broadcast_to(self.reference, T.shape)
+            else:
+                ref = 0.0
+            value = ((T - ref) ** 2 * w).sum(axis=1)
+        if self.smoothing and previous is not None:
+            value = value + self.smoothing * ((T - previous) ** 2).sum(axis=1)
+        return value
+
+
+def _per_pose(name: str, value: ArrayLike, N: int, m: int) -> NDArray:
+    arr = np.asarray(value, dtype=float)
+    try:
+        return np.broadcast_to(arr, (N, m)).astype(float, copy=True)
+    except ValueError:
+        raise InvalidInputError(
+            f"{name} must be a scalar or have shape ({m},) or ({N}, {m}), got {arr.shape}"
+        ) from None
+
+
+@dataclass(eq=False)
+class StandardForm:
+    """A batch of problems in the form every backend solves (see the module docstring).
+
+    Attributes
+    ----------
+    A : ndarray, shape (N, n, m)
+    b : ndarray, shape (N, n)
+    lb, ub : ndarray, shape (N, m)
+        Bounds; ``-inf`` / ``inf`` where absent.
+    q, c : ndarray, shape (N, m)
+        Diagonal Hessian and linear cost.
+    minmax : ndarray, shape (m,), optional
+        Weights ``v`` of the ``max_i v_i T_i`` term.
+    G, h : ndarray, shapes (N, k, m) and (N, k), optional
+        Extra inequality rows (used by the tie-break stage).
+    """
+
+    A: NDArray
+    b: NDArray
+    lb: NDArray
+    ub: NDArray
+    q: NDArray
+    c: NDArray
+    minmax: NDArray | None = None
+    problem: TensionProblem | None = None
+    previous: NDArray | None = None
+    G: NDArray | None = None
+    h: NDArray | None = None
+
+    @property
+    def N(self) -> int:
+        """Number of poses."""
+        return int(self.A.shape[0])
+
+    @property
+    def n(self) -> int:
+        """Rows of the structure matrix."""
+        return int(self.A.shape[1])
+
+    @property
+    def m(self) -> int:
+        """Number of cables."""
+        return int(self.A.shape[2])
+
+    @property
+    def kind(self) -> str:
+        """``"lp"``, ``"minmax"`` (LP in epigraph form) or ``"qp"``."""
+        if self.minmax is not None:
+            return "minmax" if not self.q.any() else "minmax_qp"
+        return "qp" if self.q.any() else "lp"
+
+    @property
+    def is_linear(self) -> bool:
+        """True for LPs, whose optimum may be non-unique."""
+        return self.kind in ("lp", "minmax")
+
+    @property
+    def has_bounds(self) -> bool:
+        """True if any bound is finite."""
+        return bool(np.isfinite(self.lb).any() or np.isfinite(self.ub).any())
+
+    def subset(self, index: NDArray) -> StandardForm:
+        """The problems of the poses ``index`` only."""
+        pick = lambda a: None if a is None else a[index]  # noqa: E731
+        return StandardForm(self.A[index], self.b[index], self.lb[index], self.ub[index],
+                            self.q[index], self.c[index], self.minmax, self.problem,
+                            pick(self.previous), pick(self.G), pick(self.h))
+
+    def scale(self) -> NDArray:
+        """Typical tension per pose (N), used to normalise the solvers' units, shape (N,)."""
+        col = np.linalg.norm(self.A, axis=1).max(axis=1)
+        s = np.linalg.norm(self.b, axis=1) / np.maximum(col, 1e-300)
+        finite_lb = np.where(np.isfinite(self.lb), np.abs(self.lb), 0.0).max(axis=1)
+        return np.maximum(np.maximum(s, finite_lb), 1e-12)
+
+
+def as_problem(objective: str | Objective | TensionProblem, **fields: Any) -> TensionProblem:
+    """Turn an objective name (or a problem) into a :class:`TensionProblem`."""
+    if isinstance(objective, TensionProblem):
+        return objective.with_(**fields) if fields else objective
+    return TensionProblem(objective=objective, **fields)
+
+
+def min_sum(**fields: Any) -> TensionProblem:
+    """Minimum weighted sum of tensions (LP)."""
+    return TensionProblem(Objective.MIN_SUM, **fields)
+
+
+def min_norm(**fields: Any) -> TensionProblem:
+    """Minimum weighted 2-norm (QP), optionally toward ``reference``."""
+    return TensionProblem(Objective.MIN_NORM, **fields)
+
+
+def pinv(**fields: Any) -> TensionProblem:
+    """Moore-Penrose pseudo-inverse: minimum 2-norm, no bounds."""
+    return TensionProblem(Objective.PINV, **fields)
+
+
+def min_max(**fields: Any) -> TensionProblem:
+    """Minimise the largest (weighted) tension."""
+    return TensionProblem(Objective.MIN_MAX, **fields)
+
+
+def centered(**fields: Any) -> TensionProblem:
+    """Closest to the middle of [t_min, t_max] (needs finite t_max)."""
+    return TensionProblem(Objective.CENTERED, **fields)
