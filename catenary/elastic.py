@@ -1,0 +1,373 @@
+"""Irvine's elastic catenary in the vertical plane of one cable (pure, vectorised).
+
+Conventions (SI units throughout)
+---------------------------------
+The cable runs from its lower end A to its upper end B. ``x >= 0`` is the
+horizontal span (m) and ``z`` the height of B over A (m, either sign). The
+unknown end forces are the horizontal tension ``H >= 0`` (N, constant along the
+cable) and the vertical tension component ``V_B`` at B (N). Vertical components
+are positive upward along the cable (from A towards B), so that
+``V_A = V_B - w * L0`` with ``L0`` the unstretched length (m) and ``w`` the
+weight per unit length (N/m). ``EA`` (N) is the axial stiffness, ``inf`` for an
+inextensible cable. The force the cable exerts on support A is ``(H, V_A)``,
+the force on support B is ``(-H, -V_B)``.
+
+Span equations (Irvine, *Cable Structures*, 1981)::
+
+    x = H L0/EA + (H/w) (asinh(V_B/H) - asinh(V_A/H))
+    z = (V_B L0 - w L0^2/2)/EA + (H/w) (sqrt(1 + (V_B/H)^2) - sqrt(1 + (V_A/H)^2))
+
+Numerics
+--------
+The differences of asinh and sqrt above cancel catastrophically for light or
+taut cables (``w L0 / T`` tiny) and are singular at ``w = 0`` and ``H = 0``.
+They are evaluated here in forms that keep full precision:
+
+* ``(H/w) (sqrt(1+a^2) - sqrt(1+b^2)) = L0 (V_A + V_B) / (T_A + T_B)``.
+* When ``V_A`` and ``V_B`` have the same sign,
+  ``asinh(a) - asinh(b) = asinh(u)`` with
+  ``u = w L0 (V_A + V_B) / (V_B T_A + V_A T_B)`` (no cancellation), and
+  ``(H/w) asinh(u) = H L0 rho asinhc(u)`` with ``rho = u / (w L0)``,
+  which is finite at ``w = 0`` (straight bar) and at ``H = 0`` (vertical cable).
+* When they have opposite signs the two asinh terms add (no cancellation).
+
+All functions broadcast their arguments against each other (numpy rules) and
+return arrays of the broadcast shape ``S`` (or ``S + (2, 2)`` for matrices).
+They do not validate arguments: see :mod:`catenary.solve` for checked entry
+points.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "flexibility",
+    "length_derivative",
+    "profile",
+    "span_jacobian",
+    "spans",
+    "stiffness",
+    "stretched_length",
+    "tension",
+]
+
+FloatArray = NDArray[np.float64]
+
+# Taylor coefficients (exact fractions) of asinh(u)/u - 1 = sum c_n u^(2n), n >= 1.
+_ASINHC_M1 = (
+    -1 / 6,
+    3 / 40,
+    -5 / 112,
+    35 / 1152,
+    -63 / 2816,
+    231 / 13312,
+    -143 / 10240,
+    6435 / 557056,
+)
+# g(a) = asinh(a) - a/sqrt(1+a^2) = a^3 sum d_n a^(2n), n >= 0.
+_G_SERIES = (
+    1 / 3,
+    -3 / 10,
+    15 / 56,
+    -35 / 144,
+    315 / 1408,
+    -693 / 3328,
+    1001 / 5120,
+    -6435 / 34816,
+)
+# Below this |argument| the series are used; 8 terms give full double precision.
+_SERIES_CUT = 0.1
+
+
+def _poly_u2(coeffs: tuple[float, ...], u2: FloatArray) -> FloatArray:
+    """Evaluate sum_k coeffs[k] * u2**k by Horner's rule."""
+    acc = np.full_like(u2, coeffs[-1])
+    for c in coeffs[-2::-1]:
+        acc = acc * u2 + c
+    return acc
+
+
+def _asinhc_m1(u: FloatArray) -> FloatArray:
+    """``asinh(u)/u - 1`` without cancellation (0 at u = 0)."""
+    u2 = u * u
+    small = np.abs(u) < _SERIES_CUT
+    series = u2 * _poly_u2(_ASINHC_M1, u2)
+    safe = np.where(small, 1.0, u)
+    direct = np.arcsinh(safe) / safe - 1.0
+    return np.where(small, series, direct)
+
+
+def _g(a: FloatArray) -> FloatArray:
+    """``asinh(a) - a/sqrt(1+a^2)`` without cancellation; odd; ``inf`` at ``a = inf``."""
+    a2 = a * a
+    small = np.abs(a) < _SERIES_CUT
+    series = a * a2 * _poly_u2(_G_SERIES, a2)
+    # a / sqrt(1+a^2) written to survive a = +-inf.
+    direct = np.arcsinh(a) - np.sign(a) / np.sqrt(1.0 + 1.0 / np.where(small, 1.0, a2))
+    return np.where(small, series, direct)
+
+
+def _as_float(*args: ArrayLike) -> list[FloatArray]:
+    return [np.asarray(a, dtype=np.float64) for a in args]
+
+
+def _inv(EA: FloatArray) -> FloatArray:
+    """1/EA, exactly 0 for an inextensible cable (EA = inf)."""
+    with np.errstate(divide="ignore"):
+        return 1.0 / EA
+
+
+def _evaluate(
+    H: FloatArray,
+    V_B: FloatArray,
+    L0: FloatArray,
+    w: FloatArray,
+    inv_EA: FloatArray,
+    jacobian: bool = True,
+) -> tuple[FloatArray, ...]:
+    """Spans and flexibility of broadcastable arrays (the solvers' hot path).
+
+    Returns ``(x, z, F_xx, F_xz, F_zz, x_c)`` where ``x_c`` is the inextensible
+    part of the horizontal span; the ``F`` terms are ``None`` when
+    ``jacobian`` is false.
+    """
+    with np.errstate(all="ignore"):
+        V_A = V_B - w * L0
+        T_A = np.hypot(H, V_A)
+        T_B = np.hypot(H, V_B)
+        S = V_A + V_B
+        same = (V_A >= 0.0) | (V_B <= 0.0)
+
+        # Same-sign branch: asinh(a) - asinh(b) = asinh(w L0 rho).
+        den = V_B * T_A + V_A * T_B
+        rho = np.where(S != 0.0, S / den, 1.0 / H)
+        u = w * L0 * rho
+        usafe = np.where(same, u, 0.0)
+        asinhc_m1 = _asinhc_m1(usafe)
+        x_same = H * L0 * rho * (1.0 + asinhc_m1)
+        # Opposite signs (V_A < 0 < V_B, needs w > 0): the asinh terms add.
+        wsafe = np.where(same, 1.0, w)
+        x_opp = H / wsafe * (np.arcsinh(V_B / H) - np.arcsinh(V_A / H))
+        x_c = np.where(same, x_same, x_opp)
+        # H = 0 (vertical cable) or H so small that V/H overflowed: the limit is 0.
+        x_c = np.where((H == 0.0) | ~np.isfinite(x_c) & np.isfinite(H), 0.0, x_c)
+
+        z_c = L0 * S / (T_A + T_B)
+        x = H * L0 * inv_EA + x_c
+        z = 0.5 * L0 * S * inv_EA + z_c
+        if not jacobian:
+            return x, z, None, None, None, x_c
+
+        TT = T_A * T_B
+        F_xz = -H * L0 * S / (TT * (T_A + T_B))
+        # T_A T_B - H^2 written without cancellation.
+        prod_m_h2 = (H * H * (V_A * V_A + V_B * V_B) + V_A * V_A * V_B * V_B) / (TT + H * H)
+        F_xx_same = L0 * rho * (asinhc_m1 + prod_m_h2 / TT)
+        F_zz_same = H * H * L0 * rho / TT
+        F_xx_opp = (_g(V_B / H) + _g(-V_A / H)) / wsafe
+        F_zz_opp = (V_B / T_B - V_A / T_A) / wsafe
+        base = L0 * inv_EA
+        F_xx = base + np.where(same, F_xx_same, F_xx_opp)
+        F_zz = base + np.where(same, F_zz_same, F_zz_opp)
+        F_xz = np.where(H == 0.0, 0.0, F_xz)
+    return x, z, F_xx, F_xz, F_zz, x_c
+
+
+def spans(
+    H: ArrayLike,
+    V_B: ArrayLike,
+    L0: ArrayLike,
+    w: ArrayLike,
+    EA: ArrayLike = np.inf,
+) -> tuple[FloatArray, FloatArray]:
+    """Horizontal and vertical span of an elastic catenary from its end forces.
+
+    Parameters
+    ----------
+    H : array_like
+        Horizontal tension (N), ``>= 0``.
+    V_B : array_like
+        Vertical tension component at the upper end B (N), positive upward.
+    L0 : array_like
+        Unstretched length (m), ``> 0``.
+    w : array_like
+        Weight per unit length (N/m), ``>= 0`` (``0`` gives a straight bar).
+    EA : array_like, optional
+        Axial stiffness (N); ``inf`` (default) for an inextensible cable.
+
+    Returns
+    -------
+    x, z : ndarray
+        Horizontal span and height of B over A (m), broadcast shape.
+    """
+    H, V_B, L0, w, EA = _as_float(H, V_B, L0, w, EA)
+    x, z, *_ = _evaluate(H, V_B, L0, w, _inv(EA), jacobian=False)
+    return x, z
+
+
+def flexibility(
+    H: ArrayLike,
+    V_B: ArrayLike,
+    L0: ArrayLike,
+    w: ArrayLike,
+    EA: ArrayLike = np.inf,
+) -> FloatArray:
+    """Flexibility matrix ``d(x, z) / d(H, V_B)`` of the cable end B (m/N).
+
+    This is the analytic Jacobian of :func:`spans` with ``L0`` held fixed. It is
+    symmetric (``dx/dV_B == dz/dH``) and positive definite for ``H > 0``.
+
+    Parameters
+    ----------
+    H, V_B, L0, w, EA : array_like
+        As in :func:`spans`.
+
+    Returns
+    -------
+    ndarray, shape ``S + (2, 2)``
+        ``[[dx/dH, dx/dV_B], [dz/dH, dz/dV_B]]``.
+    """
+    H, V_B, L0, w, EA = _as_float(H, V_B, L0, w, EA)
+    _, _, fxx, fxz, fzz, _ = _evaluate(H, V_B, L0, w, _inv(EA))
+    fxx, fxz, fzz = np.broadcast_arrays(fxx, fxz, fzz)
+    return np.stack([np.stack([fxx, fxz], -1), np.stack([fxz, fzz], -1)], -2)
+
+
+span_jacobian = flexibility
+
+
+def stiffness(
+    H: ArrayLike,
+    V_B: ArrayLike,
+    L0: ArrayLike,
+    w: ArrayLike,
+    EA: ArrayLike = np.inf,
+) -> FloatArray:
+    """Stiffness of the cable end B: ``d(H, V_B) / d(x, z)`` (N/m), end A fixed.
+
+    The inverse of :func:`flexibility` (symmetric 2x2). Moving B by
+    ``(dx, dz)`` changes the force the cable exerts on B by
+    ``-(dH, dV_B) = -K @ (dx, dz)``.
+
+    Parameters
+    ----------
+    H, V_B, L0, w, EA : array_like
+        As in :func:`spans`.
+
+    Returns
+    -------
+    ndarray, shape ``S + (2, 2)``
+        ``[[dH/dx, dH/dz], [dV_B/dx, dV_B/dz]]``; ``inf`` entries where the
+        flexibility is singular (inextensible straight or vertical cable).
+    """
+    F = flexibility(H, V_B, L0, w, EA)
+    a, b, d = F[..., 0, 0], F[..., 0, 1], F[..., 1, 1]
+    with np.errstate(all="ignore"):
+        det = a * d - b * b
+        K = np.stack([np.stack([d, -b], -1), np.stack([-b, a], -1)], -2) / det[..., None, None]
+    return K
+
+
+def length_derivative(
+    H: ArrayLike,
+    V_B: ArrayLike,
+    L0: ArrayLike,
+    w: ArrayLike,
+    EA: ArrayLike = np.inf,
+) -> tuple[FloatArray, FloatArray]:
+    """Derivative of the spans with respect to ``L0`` at fixed ``(H, V_B)``.
+
+    Lengthening the cable at fixed end forces adds cable at end A, along the
+    cable's tangent there: ``d(x, z)/dL0 = (H, V_A) (1/T_A + 1/EA)``.
+
+    Returns
+    -------
+    dx_dL0, dz_dL0 : ndarray
+        Dimensionless, broadcast shape.
+    """
+    H, V_B, L0, w, EA = _as_float(H, V_B, L0, w, EA)
+    V_A = V_B - w * L0
+    k = 1.0 / np.hypot(H, V_A) + _inv(EA)
+    return H * k, V_A * k
+
+
+def tension(
+    H: ArrayLike,
+    V_B: ArrayLike,
+    L0: ArrayLike,
+    w: ArrayLike,
+    s: ArrayLike,
+) -> FloatArray:
+    """Tension magnitude at unstretched arc length ``s`` from end A (N).
+
+    ``T(s) = sqrt(H^2 + (V_A + w s)^2)``; ``s = 0`` gives ``T_A`` and
+    ``s = L0`` gives ``T_B``. Arguments broadcast.
+    """
+    H, V_B, L0, w, s = _as_float(H, V_B, L0, w, s)
+    return np.hypot(H, V_B - w * L0 + w * s)
+
+
+def stretched_length(
+    H: ArrayLike,
+    V_B: ArrayLike,
+    L0: ArrayLike,
+    w: ArrayLike,
+    EA: ArrayLike = np.inf,
+) -> FloatArray:
+    """Stretched (loaded) length of the cable (m).
+
+    ``L = L0 + (1/EA) * integral_0^L0 T(s) ds``, with the integral in a
+    cancellation-free closed form (exact for ``w = 0``).
+    """
+    H, V_B, L0, w, EA = _as_float(H, V_B, L0, w, EA)
+    inv_EA = _inv(EA)
+    with np.errstate(all="ignore"):
+        V_A = V_B - w * L0
+        T_A = np.hypot(H, V_A)
+        T_B = np.hypot(H, V_B)
+        S = V_A + V_B
+        TS = T_A + T_B
+        _, _, _, _, _, x_c = _evaluate(H, V_B, L0, w, inv_EA, jacobian=False)
+        integral = 0.25 * L0 * (np.where(TS > 0, S * S / TS, 0.0) + TS) + 0.5 * H * x_c
+        return L0 + np.where(inv_EA == 0.0, 0.0, integral * inv_EA)
+
+
+def profile(
+    H: ArrayLike,
+    V_B: ArrayLike,
+    L0: ArrayLike,
+    w: ArrayLike,
+    EA: ArrayLike = np.inf,
+    n: int = 101,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Sampled cable shape for plots, relative to end A.
+
+    Parameters
+    ----------
+    H, V_B, L0, w, EA : array_like
+        As in :func:`spans`, broadcast shape ``S``.
+    n : int
+        Number of samples along the cable (including both ends).
+
+    Returns
+    -------
+    s, x, z : ndarray, shape ``S + (n,)``
+        Unstretched arc length from A (m) and the horizontal and vertical
+        position of each sample relative to A (m). ``x[..., -1], z[..., -1]``
+        equal :func:`spans`.
+    """
+    H, V_B, L0, w, EA = (a[..., None] for a in _as_float(H, V_B, L0, w, EA))
+    t = np.linspace(0.0, 1.0, n)
+    s = L0 * t
+    # The piece of cable from A to s is a catenary with length s whose upper
+    # end carries V_A + w s.
+    V_s = V_B - w * L0 + w * s
+    with np.errstate(all="ignore"):
+        s_pos = np.where(s > 0, s, 1.0)
+        x, z, *_ = _evaluate(H, V_s, s_pos, w, _inv(EA), jacobian=False)
+    x = np.where(s > 0, x, 0.0)
+    z = np.where(s > 0, z, 0.0)
+    s, x, z = np.broadcast_arrays(s, x, z)
+    return s, x, z
