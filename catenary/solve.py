@@ -44,6 +44,9 @@ INDETERMINATE = "indeterminate"
 NOT_CONVERGED = "not_converged"
 _STATUS_DTYPE = "<U13"
 _EPS = np.finfo(np.float64).eps
+# Residual (relative to the lengths or the tension) above which a small Newton
+# step is not trusted as convergence.
+_RES_TOL = 1e-8
 
 
 @dataclass(frozen=True)
@@ -119,8 +122,9 @@ def _prepare(
         if np.any(np.isnan(a)):
             raise InvalidCableError(f"{n} contains NaN")
     _check("x", arrays[0])
-    if np.any(~np.isfinite(arrays[1])):
-        raise InvalidCableError(f"z must be finite; got z={arrays[1][~np.isfinite(arrays[1])].flat[0]!r}")
+    zbad = ~np.isfinite(arrays[1])
+    if np.any(zbad):
+        raise InvalidCableError(f"z must be finite; got z={arrays[1][zbad].flat[0]!r}")
     _check(third_name, arrays[2], positive=third_name == "L0")
     _check("w", arrays[3])
     _check("EA", arrays[4], positive=True, allow_inf=True)
@@ -170,13 +174,13 @@ def _bracketed_newton(
         hi[idx] = np.where(~neg & ~exact, tt, hi[idx])
         with np.errstate(all="ignore"):
             tn = tt - val / der
-        l, h = lo[idx], hi[idx]
-        inside = np.isfinite(tn) & (tn > l) & (tn < h)
-        # Newton is kept only while it shrinks the bracket fast enough.
-        mid = 0.5 * (l + h)
+        a, b = lo[idx], hi[idx]
+        inside = np.isfinite(tn) & (tn > a) & (tn < b)
+        # Newton steps leaving the bracket are replaced by bisection.
+        mid = 0.5 * (a + b)
         tn = np.where(inside, tn, mid)
-        width = h - l
-        fin = exact | (width <= xtol * np.maximum(np.abs(l), np.abs(h))) | (
+        width = b - a
+        fin = exact | (width <= xtol * np.maximum(np.abs(a), np.abs(b))) | (
             np.abs(tn - tt) <= xtol * np.abs(tt)
         )
         t[idx] = np.where(exact, tt, tn)
@@ -279,7 +283,10 @@ def _newton_forces(
         )
         H[idx] = np.where(ok, hn, h)
         V[idx] = np.where(ok, vn, v)
-        fin = ok & (small_step | tiny_res)
+        fit = (np.abs(rx) <= _RES_TOL * (x[idx] + l0)) & (
+            np.abs(rz) <= _RES_TOL * (np.abs(z[idx]) + l0)
+        )
+        fin = ok & ((small_step & fit) | tiny_res)
         conv[idx] = fin
         # Non-finite steps leave Newton for the fallback.
         idx = idx[~fin & ok]
@@ -306,7 +313,7 @@ def _nested_forces(
     Vcache = np.where(np.isfinite(V0), V0, 0.5 * w * L0)
 
     def inner(h: FloatArray, sel: NDArray[np.intp]) -> tuple[FloatArray, NDArray[np.int64]]:
-        xs, zs, ls, ws, ie = x[sel], z[sel], L0[sel], w[sel], inv_EA[sel]
+        zs, ls, ws, ie = z[sel], L0[sel], w[sel], inv_EA[sel]
         m0 = Vcache[sel] - 0.5 * ws * ls
         M = np.abs(m0) + h + ws * ls + 1.0
         # Expand [-M, M] until it brackets the z target.
@@ -404,7 +411,8 @@ def _solve_forces_flat(
         zz, ll, ww, ie = z, L0, w, inv_EA
         with np.errstate(all="ignore"):
             m_fold = zz / (ll * ie + 2.0 / ww)
-            fold = np.abs(m_fold) <= 0.5 * ww * ll
+            # Folded (V_A < 0 < V_B) up to where the lower end just lifts (V_A = 0).
+            fold = np.abs(zz) <= ll + 0.5 * ww * ll * ll * ie
             m_taut = np.where(zz > 0, zz / ll - 1.0, zz / ll + 1.0) / (ll * ie) * ll
             m = np.where(fold, m_fold, m_taut)
         st = np.full(n, CONVERGED, dtype=_STATUS_DTYPE)
@@ -513,36 +521,55 @@ def _end_tension(end: str, H: FloatArray, V: FloatArray, L0: FloatArray, w: Floa
 def _initial_length(
     end: str, x: FloatArray, z: FloatArray, T: FloatArray, w: FloatArray, inv_EA: FloatArray
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Straight-cable guess with first-order sag: (H, V_B, L0), x > 0.
+    """Near-straight cable guess with first-order sag: (H, V_B, L0), x > 0.
 
-    The mean tension is the end tension corrected by ``w z / 2``; the end
-    tangents deviate from the chord by ``atan(q c / (2 T))`` (parabola with
-    transverse load ``q = w cos(theta)``); the stretched length exceeds the
-    chord by ``q^2 c^3 / (24 T^2)``.
+    Shallow-cable (parabola) estimates: the mean vertical force is ``H z/x``,
+    so ``V_B = H z/x + w L0/2`` and ``V_A = H z/x - w L0/2``; with the end
+    tension prescribed this is a quadratic in H (larger root: taut branch).
+    The stretched length exceeds the chord by ``q^2 c^3 / (24 T^2)`` with
+    ``q = w cos(theta)`` the transverse load and ``T = H / cos(theta)`` the
+    mean tension. Errors are ``O((w c / T)^2)``.
     """
     c = np.hypot(x, z)
-    theta = np.arctan2(z, x)
-    q = w * x / c
+    cos_t = x / c
+    t = z / x
     with np.errstate(all="ignore"):
-        if end == "B":
-            Tm = T - 0.5 * w * z
-        elif end == "A":
-            Tm = T + 0.5 * w * z
-        else:
-            Tm = T * c / x
-        Tm = np.maximum(Tm, 0.5 * T)
-        delta = np.arctan(0.5 * q * c / Tm)
-        Ls = c + q * q * c**3 / (24.0 * Tm * Tm)
-        L0 = Ls / (1.0 + Tm * inv_EA)
-        if end == "B":
-            phi = np.minimum(theta + delta, 0.5 * np.pi)
-            H, V = T * np.cos(phi), T * np.sin(phi)
-        elif end == "A":
-            phi = np.maximum(theta - delta, -0.5 * np.pi)
-            H, V = T * np.cos(phi), T * np.sin(phi) + w * L0
-        else:
-            H = T
-            V = T * np.tan(theta + delta)
+        # First pass with L0 ~ c, second with the corrected length.
+        L0 = c
+        for _ in range(2):
+            if end == "H":
+                H = T
+            else:
+                half = 0.5 * w * L0
+                b = t * half if end == "B" else -t * half
+                a = 1.0 + t * t
+                cc = half * half - T * T
+                disc = np.sqrt(np.maximum(b * b - a * cc, 0.0))
+                # Larger root of a H^2 + 2 b H + cc = 0, without cancellation.
+                H = np.where(b > 0, -cc / (b + disc), (disc - b) / a)
+                H = np.where(np.isfinite(H) & (H > 0), H, T * cos_t)
+                H = np.minimum(H, T)
+            Tm = H / cos_t
+            q = w * cos_t
+            Ls = c + q * q * c**3 / (24.0 * Tm * Tm)
+            Ls = np.minimum(Ls, 3.0 * c + 2.0 * T / np.where(w > 0, w, 1.0))
+            L0 = Ls / (1.0 + Tm * inv_EA)
+        V = H * t + 0.5 * w * L0
+        if end != "H":
+            # Prescribed end tension: end tangent deviating from the chord by
+            # atan(q c / (2 T)) (parabola in the chord frame); more reliable
+            # than the quadratic above for steep cables.
+            theta = np.arctan2(z, x)
+            Tm = np.maximum(T - 0.5 * w * z if end == "B" else T + 0.5 * w * z, 0.5 * T)
+            delta = np.arctan(0.5 * w * cos_t * c / Tm)
+            Ls = c + (w * cos_t) ** 2 * c**3 / (24.0 * Tm * Tm)
+            L0 = Ls / (1.0 + Tm * inv_EA)
+            if end == "B":
+                phi = np.minimum(theta + delta, 0.5 * np.pi)
+                H, V = T * np.cos(phi), T * np.sin(phi)
+            else:
+                phi = np.maximum(theta - delta, -0.5 * np.pi)
+                H, V = T * np.cos(phi), T * np.sin(phi) + w * L0
     return H, V, L0
 
 
@@ -614,7 +641,14 @@ def _newton_length(
         H[idx] = np.where(ok, hn, h)
         V[idx] = np.where(ok, vn, v)
         L[idx] = np.where(ok, ln, l0)
+        # A small step with a large residual means a (near-)singular Jacobian.
         fin = ok & small
+        fit = (
+            (np.abs(rx) <= _RES_TOL * (x[idx] + l0))
+            & (np.abs(rz) <= _RES_TOL * (np.abs(z[idx]) + l0))
+            & (np.abs(r3) <= _RES_TOL * tt)
+        )
+        fin &= fit
         # A root with dT/dL0 >= 0 is the sagging branch: reject it.
         conv[idx] = fin & (D > 0)
         idx = idx[~fin & ok]
