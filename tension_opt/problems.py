@@ -26,7 +26,7 @@ rate limit ``|T - T_prev| <= rate_limit`` tightens the bounds.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from enum import Enum
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -36,7 +36,7 @@ from tension_opt.errors import InvalidInputError
 from tension_opt.robot import CableRobot
 
 
-class Objective(str, Enum):
+class Objective(StrEnum):
     """Objective of a tension-distribution problem."""
 
     MIN_SUM = "min_sum"

@@ -64,7 +64,9 @@ class CableProperties:
     EA: float = float("inf")
 
     @classmethod
-    def from_density(cls, diameter: float, density: float, EA: float = float("inf")) -> CableProperties:
+    def from_density(
+        cls, diameter: float, density: float, EA: float = float("inf")
+    ) -> CableProperties:
         """Cable of a solid circular section: ``linear_mass = density * pi/4 * d^2``."""
         _check_positive("cable diameter", diameter)
         _check_positive("cable density", density)
@@ -367,7 +369,9 @@ class CableRobot:
         if L.ndim == 1:
             L = L[None]
         if L.ndim != 2 or L.shape[1] != self.m:
-            raise InvalidInputError(f"lengths must have shape (N, {self.m}), got {np.shape(lengths)}")
+            raise InvalidInputError(
+                f"lengths must have shape (N, {self.m}), got {np.shape(lengths)}"
+            )
         if (L <= 0).any():
             raise InvalidInputError("lengths must be positive")
         N = L.shape[0]
@@ -395,9 +399,8 @@ class CableRobot:
             active[idx[done]] = False
         lk, _, _ = self._cables(x)
         residual = np.sqrt(np.mean((lk - L) ** 2, axis=1))
-        status = np.where(
-            active, "not_converged", np.where(residual > consistency_tol, "inconsistent", "converged")
-        )
+        met = np.where(residual > consistency_tol, "inconsistent", "converged")
+        status = np.where(active, "not_converged", met)
         return ForwardKinematicsResult(x, residual, iterations, status)
 
     def _apply_step(self, x: NDArray, step: NDArray) -> NDArray:

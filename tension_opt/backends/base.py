@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import time
-from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -34,7 +33,7 @@ class RawResult:
     extras: dict[str, Any] = field(default_factory=dict)
 
 
-class Backend(ABC):
+class Backend:
     """A way of solving :class:`~tension_opt.problems.StandardForm` batches.
 
     Subclasses implement :meth:`unsupported` and :meth:`solve`; generic solvers
@@ -79,6 +78,16 @@ class Backend(ABC):
         if len(tied):
             t0 = time.perf_counter()
             face = optimal_face(form.subset(tied), first.tensions[tied])
+            if self.unsupported(face) is not None:
+                # An LP-only solver: break the tie exactly on the (small) optimal face.
+                broken = low_dim_face_solve(form.subset(tied), first.tensions[tied])
+                if broken is None:
+                    first.extras["tie_break"] = "optimal face above 2-D: vertex kept"
+                else:
+                    first.tensions[tied] = broken
+                first.solve_time += time.perf_counter() - t0
+                first.unique = unique
+                return first
             second = self.solve_stage(face, **options)
             first.solve_time += time.perf_counter() - t0 - second.setup_time
             first.setup_time += second.setup_time
@@ -233,7 +242,7 @@ def low_dim_face_solve(form: StandardForm, T: NDArray) -> NDArray | None:
     Used by LP-only backends for the tie-break. Returns None if some face is larger.
     """
     face = optimal_face(form, T)
-    N, m = T.shape
+    _N, m = T.shape
     if face.G is not None:
         E = np.concatenate([face.A, face.G], axis=1)
         _, s, vt = np.linalg.svd(E, full_matrices=True)

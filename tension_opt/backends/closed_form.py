@@ -43,7 +43,7 @@ def pinv_and_null(A: NDArray, b: NDArray) -> tuple[NDArray, NDArray]:
     Z : ndarray, shape (N, m, m - n)
         Assumes ``A`` has full row rank.
     """
-    N, n, m = A.shape
+    _N, n, m = A.shape
     if (n, m) == (3, 4):
         u = [A[:, :, i] for i in range(4)]
         null = np.stack([_det3(u[1], u[2], u[3]), -_det3(u[0], u[2], u[3]),

@@ -1,1 +1,189 @@
-"""placeholder"""
+"""Backend ``qpsolvers:SOLVER``: any QP solver installed for qpsolvers, one pose at a time.
+
+``qpsolvers:daqp`` calls DAQP directly with the same data (the generic qpsolvers path
+adds a conversion per call that dominates problems of this size).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from ctypes import c_int
+from typing import Any
+
+import numpy as np
+
+from tension_opt.backends._dense import DenseBatch, dense_batch
+from tension_opt.backends.base import Backend, RawResult, pose_loop_result, register
+from tension_opt.errors import BackendNotAvailableError
+from tension_opt.problems import StandardForm
+from tension_opt.solution import Status
+
+try:
+    import qpsolvers
+except ImportError:  # pragma: no cover - qpsolvers is a runtime dependency
+    qpsolvers = None
+
+#: Solver options for accuracy="high", in each solver's own names.
+HIGH_ACCURACY: dict[str, dict[str, Any]] = {
+    "daqp": {"primal_tol": 1e-10},
+    "osqp": {"eps_abs": 1e-10, "eps_rel": 1e-10, "polishing": True, "max_iter": 200000},
+    "proxqp": {"eps_abs": 1e-10, "eps_rel": 0.0},
+    "piqp": {"eps_abs": 1e-10, "eps_rel": 1e-11},
+    "clarabel": {"tol_gap_abs": 1e-11, "tol_gap_rel": 1e-11, "tol_feas": 1e-11},
+    "highs": {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10},
+    "scs": {"eps_abs": 1e-10, "eps_rel": 1e-10, "max_iters": 200000},
+    "quadprog": {},
+}
+#: Solvers that need a positive-definite Hessian (no LPs, no epigraph variable).
+_NEEDS_PD = {"quadprog"}
+_DAQP_EXIT = {1: Status.OPTIMAL, 2: Status.OPTIMAL, -1: Status.INFEASIBLE,
+              -3: Status.UNBOUNDED, -4: Status.MAX_ITER}
+_BIG = 1e30  # DAQP's infinity
+
+
+def _iterations(solver: str, extras: dict[str, Any]) -> int | None:
+    """Iteration count from a qpsolvers Solution's extras (None where not reported)."""
+    info = extras.get("info")
+    for obj in (info, extras):
+        if obj is None:
+            continue
+        for key in ("iter", "iterations", "num_iterations", "iter_count"):
+            value = obj.get(key) if isinstance(obj, dict) else getattr(obj, key, None)
+            if value is not None:
+                value = np.asarray(value).ravel()
+                return int(value[0]) if value.size else None
+    return None
+
+
+def _status_from(extras: dict[str, Any]) -> Status:
+    text = str(extras.get("status", "")) + str(getattr(extras.get("info"), "status", ""))
+    if "infeas" in text.lower():
+        return Status.INFEASIBLE
+    return Status.SOLVER_ERROR
+
+
+class QpsolversBackend(Backend):
+    """Any qpsolvers solver, one pose at a time (warm start from the previous pose)."""
+
+    warm_start = True
+
+    def __init__(self, solver: str) -> None:
+        if qpsolvers is None or solver not in qpsolvers.available_solvers:
+            installed = [] if qpsolvers is None else qpsolvers.available_solvers
+            raise BackendNotAvailableError(
+                f"qpsolvers solver {solver!r} is not installed (installed: {installed}); "
+                "pip install 'tension-opt[solvers]'"
+            )
+        self._solver = solver
+        self.name = f"qpsolvers:{solver}"
+
+    @property
+    def solver(self) -> str:
+        return self._solver
+
+    @property
+    def version(self) -> str:
+        if self._solver == "daqp":
+            from importlib.metadata import version
+
+            return f"daqp {version('daqp')}"
+        return f"qpsolvers {qpsolvers.__version__}"
+
+    def unsupported(self, form: StandardForm) -> str | None:
+        if self._solver in _NEEDS_PD and (form.kind != "qp" or not (form.q > 0).all()):
+            return f"{self.name} needs a positive-definite Hessian (QP objectives only)"
+        return None
+
+    def solve_stage(self, form: StandardForm, **options: Any) -> RawResult:
+        t0 = time.perf_counter()
+        batch = dense_batch(form)
+        settings = dict(HIGH_ACCURACY[self._solver]) if options.get(
+            "accuracy") == "high" else {}
+        settings.update(options.get("solver_options", {}))
+        warm = bool(options.get("warm_start", False))
+        setup = time.perf_counter() - t0
+        if self._solver == "daqp":
+            return self._solve_daqp(batch, settings, warm, setup)
+        return self._solve_generic(batch, settings, warm, setup)
+
+    def _solve_generic(self, batch: DenseBatch, settings: dict[str, Any], warm: bool,
+                       setup: float) -> RawResult:
+        N, k = batch.N, batch.k
+        x_all, status, iters = pose_loop_result(N, k)
+        has_iters = True
+        t0 = time.perf_counter()
+        x_prev = None
+        for i in range(N):
+            lb = batch.lb[i] if np.isfinite(batch.lb[i]).any() else None
+            ub = batch.ub[i] if np.isfinite(batch.ub[i]).any() else None
+            G = batch.G[i] if batch.G.shape[1] else None
+            h = batch.h[i] if batch.G.shape[1] else None
+            problem = qpsolvers.Problem(np.diag(batch.P[i]), batch.c[i], G, h, batch.Aeq[i],
+                                        batch.beq[i], lb, ub)
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    sol = qpsolvers.solve_problem(problem, solver=self._solver,
+                                                  initvals=x_prev if warm else None,
+                                                  **settings)
+            except Exception:
+                status[i] = Status.SOLVER_ERROR
+                continue
+            count = _iterations(self._solver, sol.extras or {})
+            has_iters &= count is not None
+            iters[i] = count or 0
+            if sol.found and sol.x is not None and np.isfinite(sol.x).all():
+                x_all[i], status[i] = sol.x, Status.OPTIMAL
+                x_prev = sol.x
+            else:
+                status[i] = _status_from(sol.extras or {})
+        elapsed = time.perf_counter() - t0
+        return RawResult(batch.tensions(x_all), status, iters if has_iters else None, setup,
+                         elapsed)
+
+    def _solve_daqp(self, batch: DenseBatch, settings: dict[str, Any], warm: bool,
+                    setup: float) -> RawResult:
+        import daqp
+
+        t0 = time.perf_counter()
+        N, k = batch.N, batch.k
+        g, n = batch.G.shape[1], batch.Aeq.shape[1]
+        # DAQP layout: k simple bounds, then g inequality rows, then n equality rows.
+        rows = np.concatenate([batch.G, batch.Aeq], axis=1)
+        upper = np.concatenate([np.minimum(batch.ub, _BIG), batch.h, batch.beq], axis=1)
+        lower = np.concatenate([np.maximum(batch.lb, -_BIG), np.full((N, g), -_BIG),
+                                batch.beq], axis=1)
+        sense = np.zeros(k + g + n, dtype=c_int)
+        sense[k + g:] = 5
+        H = np.zeros((N, k, k))
+        H[:, np.arange(k), np.arange(k)] = batch.P
+        x_all, status, iters = pose_loop_result(N, k)
+        setup += time.perf_counter() - t0
+        t0 = time.perf_counter()
+        x_prev = None
+        solve = daqp.solve
+        for i in range(N):
+            x, _, flag, info = solve(H[i], batch.c[i], rows[i], upper[i], lower[i], sense,
+                                     primal_start=x_prev if warm else None, **settings)
+            iters[i] = info["iterations"]
+            status[i] = _DAQP_EXIT.get(flag, Status.SOLVER_ERROR)
+            if flag > 0:
+                x_all[i] = x
+                x_prev = x
+        elapsed = time.perf_counter() - t0
+        return RawResult(batch.tensions(x_all), status, iters, setup, elapsed)
+
+
+def _available() -> list[str]:
+    if qpsolvers is None:
+        return []
+    return [f"qpsolvers:{s}" for s in sorted(qpsolvers.available_solvers)
+            if s in HIGH_ACCURACY]
+
+
+def _factory(solver: str | None) -> Backend:
+    return QpsolversBackend(solver or "daqp")
+
+
+register("qpsolvers", _factory, _available)

@@ -1,1 +1,65 @@
-"""placeholder"""
+"""Backend ``scipy:highs``: LPs through :func:`scipy.optimize.linprog` (HiGHS), per pose.
+
+linprog solves linear programs only (min-sum, min-max); ties of non-unique optima are
+broken exactly on the optimal face when that face is at most two-dimensional.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+import scipy
+from scipy.optimize import linprog
+
+from tension_opt.backends._dense import dense_batch
+from tension_opt.backends.base import Backend, RawResult, pose_loop_result, register
+from tension_opt.problems import StandardForm
+from tension_opt.solution import Status
+
+_LINPROG_STATUS = {0: Status.OPTIMAL, 1: Status.MAX_ITER, 2: Status.INFEASIBLE,
+                   3: Status.UNBOUNDED, 4: Status.INACCURATE}
+HIGH_ACCURACY = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
+
+
+class ScipyHighsBackend(Backend):
+    """HiGHS through scipy's linprog, one pose at a time."""
+
+    name = "scipy:highs"
+
+    @property
+    def version(self) -> str:
+        return f"scipy {scipy.__version__}"
+
+    def unsupported(self, form: StandardForm) -> str | None:
+        if not form.is_linear:
+            return "scipy:highs solves linear programs only (min_sum, min_max)"
+        return None
+
+    def solve_stage(self, form: StandardForm, **options: Any) -> RawResult:
+        t0 = time.perf_counter()
+        batch = dense_batch(form)
+        settings = dict(HIGH_ACCURACY) if options.get("accuracy") == "high" else {}
+        if options.get("time_limit"):
+            settings["time_limit"] = float(options["time_limit"])
+        N, k = batch.N, batch.k
+        x_all, status, iters = pose_loop_result(N, k)
+        setup = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        for i in range(N):
+            bounds = np.stack([np.where(np.isfinite(batch.lb[i]), batch.lb[i], -np.inf),
+                               batch.ub[i]], axis=1)
+            G = batch.G[i] if batch.G.shape[1] else None
+            h = batch.h[i] if batch.G.shape[1] else None
+            res = linprog(batch.c[i], A_ub=G, b_ub=h, A_eq=batch.Aeq[i], b_eq=batch.beq[i],
+                          bounds=bounds, method="highs", options=settings)
+            status[i] = _LINPROG_STATUS.get(res.status, Status.SOLVER_ERROR)
+            iters[i] = int(getattr(res, "nit", 0) or 0)
+            if res.status == 0:
+                x_all[i] = res.x
+        elapsed = time.perf_counter() - t0
+        return RawResult(batch.tensions(x_all), status, iters, setup, elapsed)
+
+
+register("scipy", lambda solver: ScipyHighsBackend(), lambda: ["scipy:highs"])
