@@ -405,8 +405,9 @@ def _solve_forces_flat(
         V = np.where(wz, np.where(ok, Vw, np.nan), V)
         status = np.where(wz, st, status)
 
-    # Vertical cables (x = 0, w > 0): H = 0 and closed-form V_B.
-    vert = (x == 0.0) & ~wz
+    # Vertical cables (x = 0, w > 0): H = 0 and closed-form V_B. Spans below
+    # 1e-15 of the cable size count as vertical (their H is below rounding).
+    vert = (x <= 1e-15 * (c + L0)) & ~wz
     if np.any(vert):
         zz, ll, ww, ie = z, L0, w, inv_EA
         with np.errstate(all="ignore"):

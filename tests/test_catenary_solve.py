@@ -1,0 +1,276 @@
+"""Forward and inverse catenary solvers: reference vectors, sweeps, statuses."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import catenary as cat
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from catenary_sweep import sweep  # noqa: E402
+
+VECTORS = json.loads((HERE / "data" / "catenary_vectors.json").read_text())["cases"]
+
+
+def _case_args(c: dict) -> tuple[float, float, float, float, float]:
+    EA = np.inf if c["EA"] is None else c["EA"]
+    return c["x"], c["z"], c["L0"], c["w"], EA
+
+
+@pytest.mark.parametrize("case", VECTORS, ids=[c["name"] for c in VECTORS])
+def test_forward_matches_reference_vectors(case: dict) -> None:
+    r = cat.solve_forces(*_case_args(case))
+    assert r.status == "converged"
+    assert r.converged
+    for key in ("H", "V_A", "V_B"):
+        assert getattr(r, key) == pytest.approx(case[key], rel=1e-6), key
+
+
+def test_forward_vectorised_over_reference_vectors() -> None:
+    args = np.array([_case_args(c) for c in VECTORS]).T
+    r = cat.solve_forces(*args)
+    ref = np.array([[c["H"], c["V_A"], c["V_B"]] for c in VECTORS]).T
+    np.testing.assert_allclose([r.H, r.V_A, r.V_B], ref, rtol=1e-6)
+    # MoorPy's own expected value for this case (56804.6) is 2.7 % off.
+    i = [c["name"] for c in VECTORS].index("near_taut_exact")
+    assert abs(r.H[i] / 56804.6 - 1) > 0.02
+
+
+@pytest.mark.parametrize("end", ["B", "A", "H"])
+def test_inverse_recovers_reference_lengths(end: str) -> None:
+    args = np.array([_case_args(c) for c in VECTORS]).T
+    x, z, L0, w, EA = args
+    H = np.array([c["H"] for c in VECTORS])
+    VB = np.array([c["V_B"] for c in VECTORS])
+    VA = np.array([c["V_A"] for c in VECTORS])
+    T = {"B": np.hypot(H, VB), "A": np.hypot(H, VA), "H": H}[end]
+    r = cat.solve_length(x, z, T, w, EA, end=end)
+    assert np.all(r.converged)
+    # The reference forces carry ~10 digits; L0 follows within 1e-6.
+    np.testing.assert_allclose(r.L0, L0, rtol=1e-6)
+
+
+# ----------------------------------------------------------------------------
+# the sweep
+
+
+@pytest.fixture(scope="module")
+def swept() -> tuple[dict[str, np.ndarray], cat.ForcesResult]:
+    s = sweep()
+    return s, cat.solve_forces(**s)
+
+
+def test_sweep_covers_requested_ranges(swept) -> None:
+    s, r = swept
+    ratio = s["L0"] / np.hypot(s["x"], s["z"])
+    assert ratio.min() == pytest.approx(1 - 1e-3) and ratio.max() == pytest.approx(3)
+    assert np.any(np.abs(ratio - (1 + 1e-9)) < 1e-12)
+    Hw = (r.H / s["w"])[s["x"] > 0]
+    assert Hw.min() < 1e-2 and Hw.max() > 1e9
+    assert np.any(s["x"] == 0) and np.any(s["z"] == 0)
+    assert np.any(s["z"] > 0) and np.any(s["z"] < 0)
+    assert s["w"].min() == 1e-6 and s["w"].max() == 1e3
+    assert s["EA"].min() == 1e3 and np.any(np.isinf(s["EA"]))
+
+
+def test_forward_converges_on_whole_sweep_with_tiny_residual(swept) -> None:
+    s, r = swept
+    assert np.all(r.converged), np.unique(r.status, return_counts=True)
+    assert np.all(r.status == "converged")
+    x, z = cat.spans(r.H, r.V_B, s["L0"], s["w"], s["EA"])
+    scale = s["L0"] + np.hypot(s["x"], s["z"])
+    assert np.max(np.abs(x - s["x"]) / scale) < 1e-12
+    assert np.max(np.abs(z - s["z"]) / scale) < 1e-12
+    assert np.all(r.H >= 0)
+    np.testing.assert_array_equal(r.V_A, r.V_B - s["w"] * s["L0"])
+
+
+def _taut_branch(s: dict, r: cat.ForcesResult, end: str) -> np.ndarray:
+    """True where dT_end/dL0 < 0 at fixed geometry (the taut branch)."""
+    return _dT_dL0(s, r, end) < 0
+
+
+def _dT_dL0(s: dict, r: cat.ForcesResult, end: str) -> np.ndarray:
+    """Derivative of the end tension with respect to L0 at fixed geometry."""
+    with np.errstate(all="ignore"):
+        F = cat.flexibility(r.H, r.V_B, s["L0"], s["w"], s["EA"])
+        xl, zl = cat.length_derivative(r.H, r.V_B, s["L0"], s["w"], s["EA"])
+        q = np.linalg.solve(F, np.stack([xl, zl], -1)[..., None])[..., 0]
+        if end == "B":
+            c = (r.H / r.T_B, r.V_B / r.T_B, 0.0)
+        elif end == "A":
+            c = (r.H / r.T_A, r.V_A / r.T_A, -s["w"] * r.V_A / r.T_A)
+        else:
+            c = (1.0, 0.0, 0.0)
+        return c[2] - c[0] * q[:, 0] - c[1] * q[:, 1]
+
+
+@pytest.mark.parametrize("end", ["B", "A", "H"])
+def test_round_trip_over_sweep(swept, end: str) -> None:
+    s, r = swept
+    T = {"B": r.T_B, "A": r.T_A, "H": r.H}[end]
+    inv = cat.solve_length(s["x"], s["z"], T, s["w"], s["EA"], end=end)
+    vertical = s["x"] == 0
+    if end == "H":
+        # H = 0 does not determine the length of a vertical cable.
+        assert np.all(inv.status[vertical] == "indeterminate")
+        assert np.all(inv.converged[~vertical])
+    else:
+        assert np.all(inv.converged), np.unique(inv.status, return_counts=True)
+    taut = _taut_branch(s, r, end) & ~vertical
+    assert taut.sum() > 1000
+    # Taut-branch cables: the inverse returns the same cable (1e-10 on L0).
+    err = np.abs(inv.L0 / s["L0"] - 1)
+    assert np.max(err[taut]) < 1e-10
+    # Others (deep sag or folded vertical): the taut root is the shorter one,
+    # and it carries the prescribed tension.
+    other = inv.converged & ~taut
+    assert np.all(inv.L0[other] <= s["L0"][other] * (1 + 1e-10))
+    T_back = {"B": inv.T_B, "A": inv.T_A, "H": inv.H}[end]
+    ok = inv.converged
+    # Where the tension hardly depends on the length (near-vertical cables
+    # given H), T is only as accurate as L0 allows: kappa = |dlnT/dlnL0|.
+    kappa = np.abs(_dT_dL0(s, r, end) * s["L0"] / T)
+    tol = 1e-9 + 1e-14 * np.nan_to_num(kappa, nan=0.0)
+    assert np.all(np.abs(T_back[ok] - T[ok]) <= tol[ok] * T[ok])
+    # ... and back: forward from the returned length gives the same forces.
+    fine = ok & ~vertical
+    fwd = cat.solve_forces(s["x"][fine], s["z"][fine], inv.L0[fine], s["w"][fine], s["EA"][fine])
+    assert np.all(fwd.converged)
+    # (kappa of T_B can exceed that of the prescribed tension: 10x margin)
+    assert np.all(np.abs(fwd.T_B - inv.T_B[fine]) <= 10 * tol[fine] * inv.T_B[fine])
+
+
+@pytest.mark.parametrize("end", ["B", "A", "H"])
+def test_inverse_round_trip_well_conditioned_cables_1e10(end: str) -> None:
+    # Elastic, moderately taut cables: tension -> length -> tension within 1e-10.
+    rng = np.random.default_rng(1)
+    n = 2000
+    x = rng.uniform(0, 80, n)
+    z = rng.uniform(-10, 10, n)
+    w = rng.uniform(1, 50, n)
+    EA = rng.uniform(1e6, 1e8, n)
+    # Tension well above the minimum that can hold the cable up.
+    T = rng.uniform(2e3, 2e4, n) + w * (np.abs(z) + 2 * np.hypot(x, z))
+    inv = cat.solve_length(x, z, T, w, EA, end=end)
+    assert np.all(inv.converged)
+    fwd = cat.solve_forces(x, z, inv.L0, w, EA)
+    T_back = {"B": fwd.T_B, "A": fwd.T_A, "H": fwd.H}[end]
+    np.testing.assert_allclose(T_back, T, rtol=1e-10)
+
+
+def test_inverse_iterations_on_thesis_workspace() -> None:
+    rng = np.random.default_rng(2)
+    n = 20000
+    pose = np.column_stack(
+        [rng.uniform(-40.45, 40.45, n), rng.uniform(-25, 25, n), rng.uniform(0, 5, n)]
+    )
+    tower = np.array([46.55, 31.1])
+    x = np.hypot(tower[0] - np.abs(pose[:, 0]), tower[1] - np.abs(pose[:, 1]))
+    z = 7.6 - pose[:, 2]
+    w = 7860 * np.pi / 4 * 0.02**2 * 9.81
+    T = rng.uniform(2537, 15000, n)
+    r = cat.solve_length(x, z, T, w, end="B")
+    assert np.all(r.converged)
+    assert np.percentile(r.iterations, 99) <= 6
+    # Thesis snapshot 1 (pose at the centre, T = 4714.6 N): sag adds 207.4 mm.
+    c = np.hypot(46.55, 31.1)
+    one = cat.solve_length(c, 7.6, 4714.6, w, end="B")
+    assert (one.L0 - np.hypot(c, 7.6)) * 1e3 == pytest.approx(207.4, abs=0.2)
+
+
+# ----------------------------------------------------------------------------
+# statuses and argument errors
+
+
+def test_infeasible_and_degenerate_cases_reported_per_cable() -> None:
+    r = cat.solve_forces([10.0, 10.0, 10.0, 10.0], 0.0, [9.0, 12.0, 9.0, 12.0], [1.0, 1, 0, 0])
+    assert r.status.tolist() == ["infeasible", "converged", "infeasible", "slack"]
+    assert r.converged.tolist() == [False, True, False, True]
+    assert np.isnan(r.H[0]) and r.H[3] == 0.0
+    # Elastic cables may be shorter than the chord (stretched).
+    e = cat.solve_forces(10.0, 0.0, 9.0, 1.0, 1e4)
+    assert e.converged and e.H == pytest.approx(1e4 * (10 / 9 - 1), rel=1e-3)
+    # Tension too small to hold the cable up: infeasible, not an exception.
+    q = cat.solve_length([50.0, 50.0], [5.0, 5.0], [1.0, 5000.0], 24.2)
+    assert q.status.tolist() == ["infeasible", "converged"]
+    assert np.isnan(q.L0[0]) and q.L0[1] > 50.0
+
+
+def test_infeasible_threshold_matches_minimum_tension() -> None:
+    # Inextensible: the end-B tension over L0 has a minimum T*; just above it
+    # the inverse converges, just below it is infeasible.
+    x, z, w = 30.0, 10.0, 2.0
+    L = np.linspace(np.hypot(x, z) * 1.001, 3 * np.hypot(x, z), 20001)
+    Tb = cat.solve_forces(x, z, L, w).T_B
+    t_star = Tb.min()
+    r = cat.solve_length(x, z, [t_star * 1.001, t_star * 0.999], w)
+    assert r.status.tolist() == ["converged", "infeasible"]
+    assert r.L0[0] < L[np.argmin(Tb)]
+
+
+def test_vertical_cables() -> None:
+    # Hanging straight: V_B = w L0 + V_A; folded: V_A < 0.
+    r = cat.solve_forces(0.0, [5.0, 5.0], [5.0 - 1e-3, 8.0], 2.0, [1e6, np.inf])
+    assert r.H.tolist() == [0.0, 0.0]
+    assert r.V_A[1] == pytest.approx(2.0 * (5 - 8) / 2) and r.V_B[1] == pytest.approx(13.0)
+    assert r.V_A[0] > 0
+    q = cat.solve_length(0.0, 5.0, 100.0, 2.0, end="B")
+    assert q.L0 == 5.0 and q.V_B == 100.0 and q.V_A == pytest.approx(90.0)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"x": -1.0}, "x"),
+        ({"x": np.nan}, "x"),
+        ({"w": -0.1}, "w"),
+        ({"L0": 0.0}, "L0"),
+        ({"EA": 0.0}, "EA"),
+        ({"z": np.inf}, "z"),
+    ],
+)
+def test_bad_arguments_raise_named_errors(kwargs: dict, match: str) -> None:
+    args = {"x": 3.0, "z": 4.0, "L0": 6.0, "w": 1.0, "EA": 1e5} | kwargs
+    with pytest.raises(cat.InvalidCableError, match=match):
+        cat.solve_forces(**args)
+    with pytest.raises(ValueError):
+        cat.solve_forces(**args)
+
+
+def test_bad_end_and_tension_raise() -> None:
+    with pytest.raises(cat.CatenaryError, match="end"):
+        cat.solve_length(3.0, 4.0, 10.0, 1.0, end="C")  # type: ignore[arg-type]
+    with pytest.raises(cat.InvalidCableError, match="tension"):
+        cat.solve_length(3.0, 4.0, -10.0, 1.0)
+
+
+finite = {"allow_nan": False, "allow_infinity": False}
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    x=st.floats(0.0, 500.0, **finite),
+    z=st.floats(-500.0, 500.0, **finite),
+    slack=st.floats(1e-6, 2.0, **finite),
+    w=st.floats(1e-4, 1e3, **finite),
+    EA=st.sampled_from([1e4, 1e7, 1e10, np.inf]),
+)
+def test_random_forward_problems_solve_to_tiny_residual(x, z, slack, w, EA) -> None:
+    c = np.hypot(x, z)
+    if c < 1e-3:
+        return
+    L0 = c * (1 + slack)
+    r = cat.solve_forces(x, z, L0, w, EA)
+    assert r.converged
+    xs, zs = cat.spans(r.H, r.V_B, L0, w, EA)
+    assert abs(xs - x) <= 1e-11 * (L0 + c)
+    assert abs(zs - z) <= 1e-11 * (L0 + c)
