@@ -33,7 +33,7 @@ def moorpy_forces(x: float, z: float, L0: float, w: float, EA: float):
     sys.breakpointhook = lambda *a, **k: None
     try:
         with contextlib.redirect_stdout(io.StringIO()):
-            fAH, fAV, fBH, fBV, info = moorpy_catenary(x, z, L0, EA, w, CB=-1e3 * (L0 + abs(z)))
+            fAH, fAV, _fBH, fBV, info = moorpy_catenary(x, z, L0, EA, w, CB=-1e3 * (L0 + abs(z)))
     finally:
         sys.breakpointhook = hook
     return fAH, fAV, -fBV, info.get("ProfileType")
