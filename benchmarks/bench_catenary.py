@@ -84,11 +84,16 @@ def main(n: int = 1_000_000) -> None:
     rows += [
         ("solve_length, thesis workspace, cables", f"{x.size:,}"),
         ("  ns per cable (vectorised)", f"{1e9 * t / x.size:.0f}"),
-        ("  Newton iterations median / p99 / max", f"{np.median(it):.0f} / "
-         f"{np.percentile(it, 99):.0f} / {it.max()}"),
+        (
+            "  Newton iterations median / p99 / max",
+            f"{np.median(it):.0f} / {np.percentile(it, 99):.0f} / {it.max()}",
+        ),
         ("  converged", f"{r.converged.mean():.4%}"),
-        ("  L0 - chord (mm) min / max", f"{1e3 * np.nanmin(r.L0 - np.hypot(x, z)):.2f} / "
-         f"{1e3 * np.nanmax(r.L0 - np.hypot(x, z)):.1f}"),
+        (
+            "  L0 - chord (mm) min / max",
+            f"{1e3 * np.nanmin(r.L0 - np.hypot(x, z)):.2f} / "
+            f"{1e3 * np.nanmax(r.L0 - np.hypot(x, z)):.1f}",
+        ),
     ]
     L0 = r.L0
     f = cat.solve_forces(x, z, L0, W_STEEL)
@@ -98,8 +103,10 @@ def main(n: int = 1_000_000) -> None:
     rows += [
         ("solve_forces, same cables", f"{x.size:,}"),
         ("  ns per cable (vectorised)", f"{ns_ours:.0f}"),
-        ("  Newton iterations median / p99 / max", f"{np.median(it):.0f} / "
-         f"{np.percentile(it, 99):.0f} / {it.max()}"),
+        (
+            "  Newton iterations median / p99 / max",
+            f"{np.median(it):.0f} / {np.percentile(it, 99):.0f} / {it.max()}",
+        ),
         ("  max |T_B - T| / T", f"{np.nanmax(np.abs(f.T_B / T - 1)):.1e}"),
     ]
     try:

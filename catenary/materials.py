@@ -75,20 +75,32 @@ MATERIALS: dict[str, CableMaterial] = {
     m.name: m
     for m in (
         CableMaterial(
-            "steel", 7860.0, 200e9, 100e9,
+            "steel",
+            7860.0,
+            200e9,
+            100e9,
             "steel wire rope; effective rope modulus roughly 80-120 GPa",
         ),
         CableMaterial(
-            "dyneema", 975.0, 100e9, 60e9,
+            "dyneema",
+            975.0,
+            100e9,
+            60e9,
             "UHMWPE fibre (970-1150 kg/m^3); braided rope modulus well below the fibre's",
         ),
         CableMaterial(
-            "aramid", 1440.0, 100e9, 50e9,
+            "aramid",
+            1440.0,
+            100e9,
+            50e9,
             "aramid/Kevlar fibre, E about 70-120 GPa (Kevlar as in the reference study)",
         ),
         CableMaterial("polyester", 1380.0, 10e9, 5e9, "polyester (PET) fibre rope"),
         CableMaterial(
-            "polyethylene", 1150.0, 1e9, 1e9,
+            "polyethylene",
+            1150.0,
+            1e9,
+            1e9,
             "polyethylene as in the reference study (density only there); modulus nominal",
         ),
     )

@@ -180,8 +180,10 @@ def _bracketed_newton(
         mid = 0.5 * (a + b)
         tn = np.where(inside, tn, mid)
         width = b - a
-        fin = exact | (width <= xtol * np.maximum(np.abs(a), np.abs(b))) | (
-            np.abs(tn - tt) <= xtol * np.abs(tt)
+        fin = (
+            exact
+            | (width <= xtol * np.maximum(np.abs(a), np.abs(b)))
+            | (np.abs(tn - tt) <= xtol * np.abs(tt))
         )
         t[idx] = np.where(exact, tt, tn)
         done[idx] = fin
@@ -634,11 +636,7 @@ def _newton_length(
         fscale = np.hypot(h, v) + ww * l0
         vn = v + np.clip(dv, -10 * fscale, 10 * fscale)
         ok = np.isfinite(hn) & np.isfinite(vn) & np.isfinite(ln)
-        small = (
-            (np.abs(dh) <= rtol * h)
-            & (np.abs(dv) <= rtol * fscale)
-            & (np.abs(dl) <= rtol * l0)
-        )
+        small = (np.abs(dh) <= rtol * h) & (np.abs(dv) <= rtol * fscale) & (np.abs(dl) <= rtol * l0)
         H[idx] = np.where(ok, hn, h)
         V[idx] = np.where(ok, vn, v)
         L[idx] = np.where(ok, ln, l0)
@@ -864,9 +862,7 @@ def solve_length(
     if gi.size:
         xg, zg, tg, wg, ig = xf[gi], zf[gi], tf[gi], wf[gi], inv_EA[gi]
         H0, V0, L0 = _initial_length(end, xg, zg, tg, wg, ig)
-        Hn, Vn, Ln, conv, itn = _newton_length(
-            end, xg, zg, tg, wg, ig, H0, V0, L0, rtol, max_iter
-        )
+        Hn, Vn, Ln, conv, itn = _newton_length(end, xg, zg, tg, wg, ig, H0, V0, L0, rtol, max_iter)
         st = np.where(conv, CONVERGED, NOT_CONVERGED).astype(_STATUS_DTYPE)
         if not np.all(conv):
             f = np.flatnonzero(~conv)

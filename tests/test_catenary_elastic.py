@@ -149,6 +149,4 @@ def test_broadcasting_shapes() -> None:
 def test_series_helpers_match_direct_forms_away_from_zero() -> None:
     u = np.array([0.0999999, 0.1000001, -0.0999999])
     np.testing.assert_allclose(elastic._asinhc_m1(u), np.arcsinh(u) / u - 1, rtol=1e-9)
-    np.testing.assert_allclose(
-        elastic._g(u), np.arcsinh(u) - u / np.sqrt(1 + u * u), rtol=1e-8
-    )
+    np.testing.assert_allclose(elastic._g(u), np.arcsinh(u) - u / np.sqrt(1 + u * u), rtol=1e-8)
