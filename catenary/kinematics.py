@@ -400,11 +400,11 @@ def inverse_kinematics(
         H, V_A, V_B, L0 = (np.full((N, m), np.nan) for _ in range(4))
         idx = np.flatnonzero(ok)
         if idx.size:
-            cat = solve_length(geo.x[idx], geo.z[idx], T_straight[idx], w, EA, end="B")
-            cat_its[idx] += cat.iterations
-            good = cat.converged.all(axis=1)
-            status[idx[~good]] = "catenary_failed"
-            H[idx], V_A[idx], V_B[idx], L0[idx] = cat.H, cat.V_A, cat.V_B, cat.L0
+            h, va, vb, l0, its, conv = _catenary(geo.x[idx], geo.z[idx], T_straight[idx], w,
+                                                 EA, "B")
+            cat_its[idx] += its
+            status[idx[~conv.all(axis=1)]] = "catenary_failed"
+            H[idx], V_A[idx], V_B[idx], L0[idx] = h, va, vb, l0
     failed = (status != "converged") & (status != "max_iter")
     for arr in (H, V_A, V_B, L0):
         arr[failed] = np.nan
@@ -469,11 +469,11 @@ def _scp(
     def catenaries(sel: NDArray[np.intp], tens: FloatArray) -> NDArray[np.bool_]:
         """Solve the cables of poses ``sel`` at platform tensions ``tens``; True where all
         of a pose's cables have a taut catenary (stored in H, V_A, V_B, L0)."""
-        cat = solve_length(geo.x[sel], geo.z[sel], tens, w, EA, end="A")
-        cat_its[sel] += cat.iterations
-        good = cat.converged.all(axis=1)
+        h, va, vb, l0, its, conv = _catenary(geo.x[sel], geo.z[sel], tens, w, EA, "A")
+        cat_its[sel] += its
+        good = conv.all(axis=1)
         g = sel[good]
-        H[g], V_A[g], V_B[g], L0[g] = cat.H[good], cat.V_A[good], cat.V_B[good], cat.L0[good]
+        H[g], V_A[g], V_B[g], L0[g] = h[good], va[good], vb[good], l0[good]
         return good
 
     idx = np.flatnonzero(ok)
@@ -513,12 +513,17 @@ def _scp(
         # kept convex. Without it the LP steps of min-sum can cycle between vertices
         # when the optimum of the curved problem is not at a vertex.
         dT = 1e-6 * Ta
-        near = solve_length(sub.x, sub.z, Ta + dT, w, EA, end="A")
+        near = _catenary(sub.x, sub.z, Ta + dT, w, EA, "A")
         with np.errstate(invalid="ignore"):
-            slope2 = _force_slope(sub, near.H, near.V_A, near.V_B, near.L0, w, EA)
+            slope2 = _force_slope(sub, *near[:4], w, EA)
             W2 = (_wrenches(slope2, sub.arm, rows) - W1) / dT[..., None]
             curv = np.einsum("kn,kmn->km", lam[active], W2)
         curv = np.where(np.isfinite(curv), np.maximum(curv, 0.0), 0.0)
+        # Curvature too small to change the objective at the scale of the tensions is
+        # dropped (keeps LPs linear where the cables are nearly straight).
+        scale = form.scale()[:, None]
+        size = (np.abs(form.c) * scale + form.q * scale**2).max(axis=1, keepdims=True)
+        curv = np.where(curv * scale**2 > 1e-12 * size, curv, 0.0)
         form.q = form.q + curv
         form.c = form.c - curv * Ta
         raw = solver.solve(form, **options)
@@ -585,6 +590,39 @@ def _multipliers(form: StandardForm, T: FloatArray) -> FloatArray:
     return np.linalg.solve(M, rhs[..., None])[..., 0]
 
 
+def _catenary(
+    x: FloatArray, z: FloatArray, T: FloatArray, w: float, EA: float, end: Literal["A", "B"]
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.int64],
+           NDArray[np.bool_]]:
+    """Taut catenaries with tension ``T`` at ``end``: ``H, V_A, V_B, L0``, iterations, ok.
+
+    :func:`catenary.solve_length`, except for cables so light that their sag is below
+    the rounding of their length (``w c / T < 1e-7``, ``c`` the chord): there the
+    length no longer determines the shape in double precision, and the end tangent is
+    taken from the first-order (parabolic) sag instead, exact to ``O((w c / T)^2)``:
+    it leaves the chord by ``w c cos(theta) / (2 T)``, below it at A, above it at B.
+    """
+    res = solve_length(x, z, T, w, EA, end=end)
+    H, V_A, V_B, L0 = res.H.copy(), res.V_A.copy(), res.V_B.copy(), res.L0.copy()
+    ok = res.converged.copy()
+    c = np.hypot(x, z)
+    with np.errstate(all="ignore"):
+        light = (w * c < 1e-7 * T) & (c > 0) & (T > 0)
+        if light.any():
+            theta = np.arctan2(z, x)
+            delta = w * x / (2.0 * T)  # = w c cos(theta) / (2 T)
+            phi = theta - delta if end == "A" else theta + delta
+            L0l = c / (1.0 + T / EA)
+            Hl, Vl = T * np.cos(phi), T * np.sin(phi)
+            V_Al = Vl if end == "A" else Vl - w * L0l
+            H = np.where(light, Hl, H)
+            V_A = np.where(light, V_Al, V_A)
+            V_B = np.where(light, V_Al + w * L0l, V_B)
+            L0 = np.where(light, L0l, L0)
+            ok = ok | light
+    return H, V_A, V_B, L0, res.iterations, ok
+
+
 def _force_slope(
     geo: _Geometry,
     H: FloatArray,
@@ -616,6 +654,15 @@ def _force_slope(
     vertical = geo.x == 0
     dH = np.where(vertical, 0.0, dH)
     dV = np.where(vertical, np.sign(V_A), dV)
+    # Cables with sag below rounding (see _catenary): the end tangent leaves the chord by
+    # delta = w x / (2 T), so f = T (cos, sin)(theta - delta) and
+    # f' = (cos, sin)(phi) + delta (-sin, cos)(phi) with phi = theta - delta.
+    with np.errstate(all="ignore"):
+        light = (w * geo.chord < 1e-7 * T_A) & ~vertical
+        phi = np.arctan2(V_A, H)
+        delta = w * geo.x / (2.0 * T_A)
+    dH = np.where(light, np.cos(phi) - delta * np.sin(phi), dH)
+    dV = np.where(light, np.sin(phi) + delta * np.cos(phi), dV)
     return dH[..., None] * geo.e_h + dV[..., None] * _E_Z
 
 
@@ -808,14 +855,31 @@ def _sag_corrected_start(
     """A start pose for the catenary forward kinematics, shape (N, n).
 
     The straight-line forward kinematics of the lengths (a least-squares fit: sagging
-    lengths are not consistent with straight cables), then raised along z until every
-    chord is shorter than its cable by a margin, so that every catenary exists and
-    carries a finite tension (for the usual suspended robot, with the drawing points
-    above the platform, raising shortens every chord).
+    lengths are not consistent with straight cables), refitted twice to the chords the
+    straight-line minimum-norm tensions would give (stretch minus first-order sag).
+    Inextensible cables where that fails (no feasible tensions, or a chord longer than
+    its cable): the fit raised along z (up to the lowest drawing point) to where the
+    smallest relative slack ``(L - chord) / L`` of the cables is largest, so that every
+    catenary exists (for the usual suspended robot, raising shortens every chord).
     """
     p = robot.forward_kinematics(L).poses
-    if robot.kind not in ("point3", "spatial6", "planar_point2"):
-        return p
+    valid = np.ones(len(p), bool)
+    # Chords ~ stretched lengths minus the parabolic sag excess, with the tensions of the
+    # straight-line minimum-norm distribution.
+    q = p
+    for _ in range(2):
+        geo = _geometry(robot, q)
+        T = tension_opt.distribute(robot, q, "min_norm", wrench=wrench).tensions
+        valid &= np.isfinite(T).all(axis=1)
+        T = np.where(np.isfinite(T) & (T > 0), T, robot.weight)
+        excess = (w * geo.x) ** 2 * geo.chord / (24.0 * T * T)
+        chord = np.maximum(L * (1.0 + T / EA) - excess, 1e-3 * L)
+        q = robot.forward_kinematics(chord, q).poses
+    if np.isfinite(EA):
+        return q
+    valid &= (_geometry(robot, q).chord < L).all(axis=1)
+    if valid.all() or robot.kind not in ("point3", "spatial6", "planar_point2"):
+        return q
     zcol = 1 if robot.kind == "planar_point2" else 2
     top = robot.anchors[:, 2].min()
     k = 65
@@ -828,7 +892,7 @@ def _sag_corrected_start(
     best = np.argmax(slack, axis=0)
     # Keep the fit where its chords are already all shorter than the cables.
     best = np.where(slack[0] > 1e-6, 0, best)
-    return trial[best, np.arange(len(p))]
+    return np.where(valid[:, None], q, trial[best, np.arange(len(p))])
 
 
 def _skew(v: FloatArray) -> FloatArray:
