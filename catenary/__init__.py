@@ -4,7 +4,8 @@
 elastic catenary) with their analytic flexibility and stiffness;
 ``catenary.solve`` the forward (length -> forces) and inverse
 (tension -> length) solvers; ``catenary.materials`` a small cable catalogue.
-These need nothing but numpy and scipy.
+These need nothing but numpy and scipy; ``catenary.kinematics`` (sag-aware inverse and
+forward kinematics of a :class:`tension_opt.CableRobot`) builds on ``tension_opt``.
 """
 
 from .elastic import (
@@ -18,6 +19,12 @@ from .elastic import (
     tension,
 )
 from .errors import CatenaryError, InvalidCableError
+from .kinematics import (
+    ForwardKinematicsResult,
+    InverseKinematicsResult,
+    forward_kinematics,
+    inverse_kinematics,
+)
 from .materials import MATERIALS, CableMaterial, cable_properties, get_material
 from .solve import ForcesResult, LengthResult, solve_forces, solve_length
 
@@ -26,11 +33,15 @@ __all__ = [
     "CableMaterial",
     "CatenaryError",
     "ForcesResult",
+    "ForwardKinematicsResult",
     "InvalidCableError",
+    "InverseKinematicsResult",
     "LengthResult",
     "cable_properties",
     "flexibility",
+    "forward_kinematics",
     "get_material",
+    "inverse_kinematics",
     "length_derivative",
     "profile",
     "solve_forces",
