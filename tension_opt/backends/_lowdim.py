@@ -204,8 +204,9 @@ def lp_2d(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray, c: NDArray, scale: 
     optimal = ok & (cost <= (best + tol)[:, None])
     # Distinct optimal vertices: the spread of their coordinates.
     opt_pts = np.where(optimal[..., None], vertices, np.nan)
-    spread = np.nanmax(opt_pts, axis=1) - np.nanmin(opt_pts, axis=1)
-    spread = np.where(np.isnan(spread), 0.0, spread)
+    hi_pts = np.where(optimal[..., None], vertices, -np.inf).max(axis=1)
+    lo_pts = np.where(optimal[..., None], vertices, np.inf).min(axis=1)
+    spread = np.where(optimal.any(axis=1)[:, None], hi_pts - lo_pts, 0.0)
     znorm = np.linalg.norm(Z, axis=1).max(axis=1)
     multi = (spread * znorm[:, None]).max(axis=1) > FEAS_TOL * scale * 10
     unique = feasible & ~flat & ~multi
