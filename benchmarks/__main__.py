@@ -58,7 +58,7 @@ def _run(args: argparse.Namespace) -> int:
         problems=harness.select(args.problem, PROBLEMS, "problem"),
         backends=args.backend, settings=settings)
     if not args.full:
-        cells = harness.default_suite(cells)
+        cells = harness.default_suite(cells, requested=args.scenario or ())
     store = harness.ResultsStore(args.results)
     start = time.perf_counter()
     frame = harness.run(cells, store, redo=args.redo, time_limit=args.time_limit,

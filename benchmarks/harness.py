@@ -51,6 +51,8 @@ MAX_TRACE_POSES = 200
 FAST_BACKENDS = ("closed_form", "qpsolvers:daqp")
 #: Reference of the objective gap: the exact closed form, else this one at high accuracy.
 REFERENCE_BACKENDS = ("closed_form", "cvxpy:CLARABEL")
+#: Backends whose traces are kept (all backends when none of them is in a run).
+TRACE_BACKENDS = (*REFERENCE_BACKENDS, "qpsolvers:clarabel")
 #: Jump threshold of the smoothness metrics, as a fraction of the platform weight.
 JUMP_FRACTION = 0.1
 #: Default time limit of one cell (s).
@@ -152,11 +154,14 @@ class SuiteRule:
         Backends kept (None: all).
     joint : bool
         Whether joint smoothing is kept.
+    enabled : bool
+        False: the scenario runs only when asked for by name (or with ``--full``).
     """
 
     settings: tuple[str, ...] = ("default/cold",)
     backends: tuple[str, ...] | None = None
     joint: bool = True
+    enabled: bool = True
 
 
 #: The default suite (``python -m benchmarks``): modest, within a few minutes on 2 cores.
@@ -166,18 +171,23 @@ DEFAULT_SUITE: dict[str, SuiteRule] = {
     "thesis_trajectory": SuiteRule(("default/cold", "default/warm", "high/cold")),
     "thesis_random": SuiteRule(),
     "cogiro_trajectory": SuiteRule(),
-    "cogiro_random": SuiteRule(),
+    "cogiro_random": SuiteRule(enabled=False),
     "thesis_long": SuiteRule(backends=FAST_BACKENDS, joint=False),
 }
 
 
-def default_suite(cells: Iterable[Cell]) -> list[Cell]:
-    """The cells of ``cells`` that the default suite runs (see :data:`DEFAULT_SUITE`)."""
+def default_suite(cells: Iterable[Cell], requested: Iterable[str] = ()) -> list[Cell]:
+    """The cells of ``cells`` that the default suite runs (see :data:`DEFAULT_SUITE`).
+
+    Scenarios named in ``requested`` run even if their rule is disabled.
+    """
     kept = []
+    requested = set(requested)
     for cell in cells:
         rule = DEFAULT_SUITE.get(cell.scenario.name)
         if rule is not None and (
-            cell.setting.label not in rule.settings
+            (not rule.enabled and cell.scenario.name not in requested)
+            or cell.setting.label not in rule.settings
             or (rule.backends is not None and cell.backend not in rule.backends)
             or (cell.problem.joint and not rule.joint)
         ):
@@ -377,7 +387,7 @@ def run_cell(cell: Cell, references: dict[tuple[str, str], NDArray | None],
     return CellResult(row, out["tensions"] if keep else None)
 
 
-def _short(exc: BaseException, limit: int = 200) -> str:
+def _short(exc: BaseException, limit: int = 160) -> str:
     text = " ".join(str(exc).split())
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
@@ -596,6 +606,7 @@ def run(
     store = store or ResultsStore()
     done = set() if redo else store.done()
     todo = [c for c in cells if c.key not in done]
+    keep = set(TRACE_BACKENDS) & {c.backend for c in cells} or {c.backend for c in cells}
     references: dict[tuple[str, str], NDArray | None] = {}
     worker: _Worker | None = None
     saved = time.perf_counter()
@@ -623,7 +634,8 @@ def run(
                     else:
                         row.update(status="error", message=str(payload))
                     result = CellResult(row)
-            trace = result.trace if cell.setting == ALL_SETTINGS[0] else None
+            trace = (result.trace if cell.setting == ALL_SETTINGS[0] and cell.backend in keep
+                     else None)
             store.append(result.row, trace)
             if time.perf_counter() - saved > CONSOLIDATE_EVERY:
                 store.consolidate()

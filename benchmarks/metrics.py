@@ -146,9 +146,10 @@ def relative_shifted_geometric_means(
 ) -> pd.Series:
     """Shifted geometric mean of ``value`` per solver, divided by the best solver's, as qpbenchmark.
 
-    Only instances (rows grouped by ``instance``) that every solver attempted are
-    compared. A missing or NaN value (a failure) counts as ``penalty``, by default
-    the largest value of the column.
+    Each solver is averaged over the instances (rows grouped by ``instance``) it has a
+    row for; leave out the rows of instances a solver cannot express. A row whose
+    ``value`` is NaN is a failure and counts as ``penalty``, by default the largest
+    value of the column.
 
     Parameters
     ----------
@@ -172,11 +173,13 @@ def relative_shifted_geometric_means(
     """
     if frame.empty:
         return pd.Series(dtype=float)
-    wide = frame.pivot_table(index=list(instance), columns=solver, values=value,
-                             aggfunc="first", dropna=False)
-    fill = penalty if penalty is not None else float(np.nanmax(wide.to_numpy(), initial=0.0))
-    wide = wide.fillna(fill)
-    means = pd.Series({c: shifted_geometric_mean(wide[c].to_numpy(), shift) for c in wide})
+    values = frame[value].astype(float)
+    fill = penalty if penalty is not None else float(np.nanmax(values, initial=0.0))
+    data = frame.assign(_v=values.fillna(fill))
+    means = pd.Series({
+        name: shifted_geometric_mean(group.groupby(list(instance))["_v"].first(), shift)
+        for name, group in data.groupby(solver, sort=False)
+    }, dtype=float)
     best = means.min()
     return (means / best if best > 0 else means * np.nan).sort_values()
 

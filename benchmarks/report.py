@@ -108,16 +108,17 @@ def backend_summary(frame: pd.DataFrame) -> pd.DataFrame:
     """Per backend over one scenario's cells at one setting: success, time, accuracy.
 
     Columns: ``cells ok``, ``success`` (mean success rate of the cells that ran),
-    ``time ratio (sgm)`` (shifted geometric mean of the median time per pose, shift
-    10 us, relative to the best; failures count as the slowest time),
+    ``time ratio (sgm)`` (shifted geometric mean of the median time per pose over the
+    cells the backend can express, shift 10 us, relative to the best; failures count
+    as the slowest time),
     ``median us/pose``, ``p95 us/pose``, ``iterations``, ``max gap``,
-    ``max residual N``, ``max bound viol. N``.
+    ``max residual (N)``, ``max bound viol. (N)``.
     """
     ran = frame[frame["status"].isin(["ok", "time_limit"])]
     if ran.empty:
         return pd.DataFrame()
     ok = frame[frame["status"] == "ok"]
-    attempted = frame[frame["status"] != "not_installed"]
+    attempted = frame[frame["status"].isin(["ok", "time_limit", "error"])]
     sgm = metrics.relative_shifted_geometric_means(
         attempted.assign(t=attempted["time_us_median"].where(attempted["status"] == "ok")),
         "t", instance=("scenario", "problem", "setting"))
@@ -130,8 +131,8 @@ def backend_summary(frame: pd.DataFrame) -> pd.DataFrame:
         "p95 us/pose": g["time_us_p95"].max(),
         "iterations": g["iterations_mean"].mean(),
         "max gap": g["objective_gap_max"].max(),
-        "max residual N": g["residual_max"].max(),
-        "max bound viol. N": g["bound_violation_max"].max(),
+        "max residual (N)": g["residual_max"].max(),
+        "max bound viol. (N)": g["bound_violation_max"].max(),
     })
     table["cells ok"] = table["cells ok"].fillna(0).astype(int)
     table.index.name = "backend"
@@ -152,8 +153,8 @@ def smoothness_table(frame: pd.DataFrame) -> pd.DataFrame:
     picked = _pick_trace_backend(frame)
     if picked.empty or "total_variation" not in picked:
         return pd.DataFrame()
-    cols = {"backend": "backend", "success_rate": "success", "total_variation": "TV sum|dT| N",
-            "max_step": "max|dT| N", "max_second_diff": "max|d2T| N", "jumps": "jumps",
+    cols = {"backend": "backend", "success_rate": "success", "total_variation": "TV (N)",
+            "max_step": "max step (N)", "max_second_diff": "max 2nd diff (N)", "jumps": "jumps",
             "non_unique_on_path": "non-unique"}
     table = picked[list(cols)].rename(columns=cols)
     order = [p for p in PROBLEMS if p in table.index]
@@ -165,10 +166,10 @@ def sag_table(frame: pd.DataFrame) -> pd.DataFrame:
     picked = _pick_trace_backend(frame)
     if picked.empty or "sag_max_mm" not in picked:
         return pd.DataFrame()
-    cols = {"catenary_length_mean": "mean L m", "sag_max_mm": "max L-Le mm",
-            "sag_mean_mm": "mean L-Le mm", "catenary_iterations_mean": "cat. iter. mean",
+    cols = {"catenary_length_mean": "mean L (m)", "sag_max_mm": "max L-Le (mm)",
+            "sag_mean_mm": "mean L-Le (mm)", "catenary_iterations_mean": "cat. iter. mean",
             "catenary_iterations_max": "cat. iter. max",
-            "thesis_residual_max": "thesis residual N"}
+            "thesis_residual_max": "thesis residual (N)"}
     table = picked[list(cols)].rename(columns=cols)
     return table.reindex([p for p in PROBLEMS if p in table.index])
 
@@ -189,7 +190,7 @@ def headline(frame: pd.DataFrame, scenario: str = "thesis_trajectory",
     if rows.empty:
         return pd.DataFrame(), pd.DataFrame()
     smooth = smoothness_table(rows)
-    smooth = smooth[[c for c in ("backend", "TV sum|dT| N", "max|dT| N", "jumps")
+    smooth = smooth[[c for c in ("backend", "TV (N)", "max step (N)", "jumps")
                      if c in smooth]]
     base = rows[rows["setting"] == BASE_SETTING]
     times = _cell_text(base, "time_us_median")
@@ -209,7 +210,7 @@ def plot_traces(scenario: str, traces: dict[tuple[str, ...], NDArray], frame: pd
         return False
     cols = 4 if len(panels) > 4 else len(panels)
     rows = int(np.ceil(len(panels) / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 2.8 * rows), squeeze=False,
+    fig, axes = plt.subplots(rows, cols, figsize=(3.0 * cols, 2.3 * rows), squeeze=False,
                              sharex=True)
     for ax, (problem, backend) in zip(axes.flat, panels, strict=False):
         T = traces[(scenario, problem, backend, BASE_SETTING)]
@@ -225,7 +226,7 @@ def plot_traces(scenario: str, traces: dict[tuple[str, ...], NDArray], frame: pd
         ax.set_xlabel("pose", fontsize=8)
     fig.suptitle(f"{scenario}: cable tensions along the path", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=72)
     plt.close(fig)
     return True
 
@@ -257,13 +258,24 @@ def plot_time_per_pose(frame: pd.DataFrame, path: Path) -> bool:
 
 
 def plot_performance_profile(frame: pd.DataFrame, path: Path) -> bool:
-    """Performance profile of the median time per pose over all instances (Dolan-More)."""
-    ranked = with_time_ratio(frame[frame["status"] != "not_installed"])
+    """Performance profile of the median time per pose (Dolan-More), at the base setting.
+
+    Instances are the (scenario, problem) pairs that every backend in the table ran;
+    a cell that is not ok there (unsupported, failed) counts as never solved.
+    """
+    base = frame[(frame["setting"] == BASE_SETTING) & (frame["status"] != "not_installed")]
+    ranked = with_time_ratio(base)
     if ranked["time_ratio"].notna().sum() == 0:
         return False
-    wide = ranked.pivot_table(index=["scenario", "problem", "setting"], columns="backend",
-                              values="time_ratio", aggfunc="first", dropna=False)
+    index = ["scenario", "problem"]
+    present = ranked.pivot_table(index=index, columns="backend", values="status",
+                                 aggfunc="first").notna().all(axis=1)
+    wide = ranked.pivot_table(index=index, columns="backend", values="time_ratio",
+                              aggfunc="first", dropna=False)
+    wide = wide[present.reindex(wide.index).fillna(False).to_numpy(dtype=bool)]
     finite = wide.to_numpy()[np.isfinite(wide.to_numpy())]
+    if wide.empty or finite.size == 0:
+        return False
     taus = np.logspace(0, np.log10(max(2.0, float(finite.max()) * 1.1)), 200)
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for backend in _backend_order(ranked):
@@ -276,7 +288,8 @@ def plot_performance_profile(frame: pd.DataFrame, path: Path) -> bool:
     ax.set_ylim(0, 1.02)
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=6, ncol=2)
-    ax.set_title("performance profile (instance = scenario x problem x setting)", fontsize=10)
+    ax.set_title(f"performance profile over {len(wide)} scenario x problem instances "
+                 f"({BASE_SETTING})", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
@@ -293,9 +306,9 @@ def plot_smoothness(frame: pd.DataFrame, path: Path) -> bool:
         return False
     fig, axes = plt.subplots(len(tables), 2, figsize=(10, 2.6 * len(tables)), squeeze=False)
     for (scenario, table), row in zip(tables, axes, strict=True):
-        for ax, col in zip(row, ("TV sum|dT| N", "max|dT| N"), strict=True):
+        for ax, col in zip(row, ("TV (N)", "max step (N)"), strict=True):
             ax.bar(table.index, table[col].astype(float) / 1e3, color="tab:blue")
-            ax.set_title(f"{scenario}: {col.replace(' N', '')} (kN)", fontsize=9)
+            ax.set_title(f"{scenario}: {col.replace(' (N)', '')} (kN)", fontsize=9)
             ax.tick_params(axis="x", rotation=45, labelsize=7)
             ax.grid(alpha=0.3, axis="y")
     fig.tight_layout()
@@ -315,7 +328,8 @@ def _settings_lines() -> list[str]:
         "are solved pose by pose inside a chunk; joint smoothing is one chunk (one sample).",
         "- Time ratio: median time per pose over the best backend of the same scenario x "
         "problem x setting; summaries use the shifted geometric mean (shift 10 us) of the "
-        "median time per pose, failures counted as the slowest time, relative to the best.",
+        "median time per pose over the cells a backend can express (errors and time-outs "
+        "count as the slowest time), relative to the best.",
         "- Objective gap: largest `|f - f_ref| / max(|f_ref|, 1)` over the poses, against "
         f"{' or '.join(harness.REFERENCE_BACKENDS)} (high accuracy), whichever applies first.",
         f"- Smoothing weight {SMOOTHING:g} (1/N); rate limit {RATE_FRACTION:g} m g per step; "
@@ -428,8 +442,10 @@ def write_report(directory: str | os.PathLike[str] = harness.RESULTS_DIR) -> Pat
         if plot_time_per_pose(frame, out / "time_per_pose.png"):
             figures["time_per_pose.png"] = "Median time per pose per backend (log scale)."
         if plot_performance_profile(frame, out / "performance_profile.png"):
-            figures["performance_profile.png"] = ("Performance profile: fraction of instances "
-                                                  "solved within a factor of the best time.")
+            figures["performance_profile.png"] = (
+                "Performance profile: fraction of the instances every backend ran that a "
+                "backend solves within a factor of the best time per pose (unsupported counts "
+                "as unsolved).")
         if plot_smoothness(frame, out / "smoothness.png"):
             figures["smoothness.png"] = "Total variation and largest step of the tensions."
         for scenario in dict.fromkeys(frame["scenario"]):

@@ -58,6 +58,10 @@ def test_relative_sgm_penalises_failures() -> None:
     # fast: sgm(10, 10) = 10; slow: the failure counts as the largest value 30 -> 30.
     assert ratios["fast"] == pytest.approx(1.0)
     assert ratios["slow"] == pytest.approx(3.0)
+    # A solver without a row for instance "b" (cannot express it) is averaged over "a".
+    partial = pd.concat([frame, frame.iloc[[0]].assign(backend="partial", t=20.0)])
+    ratios = metrics.relative_shifted_geometric_means(partial, "t")
+    assert ratios["partial"] == pytest.approx(2.0)
 
 
 def test_performance_profile_fractions() -> None:
