@@ -58,7 +58,8 @@ def _run(args: argparse.Namespace) -> int:
         problems=harness.select(args.problem, PROBLEMS, "problem"),
         backends=args.backend, settings=settings)
     if not args.full:
-        cells = harness.default_suite(cells, requested=args.scenario or ())
+        chosen = [name for name in ("scenario", "backend", "settings") if getattr(args, name)]
+        cells = harness.default_suite(cells, chosen)
     store = harness.ResultsStore(args.results)
     start = time.perf_counter()
     frame = harness.run(cells, store, redo=args.redo, time_limit=args.time_limit,

@@ -20,7 +20,7 @@ import os
 import sys
 import time
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -176,20 +176,26 @@ DEFAULT_SUITE: dict[str, SuiteRule] = {
 }
 
 
-def default_suite(cells: Iterable[Cell], requested: Iterable[str] = ()) -> list[Cell]:
+def default_suite(cells: Iterable[Cell], chosen: Collection[str] = ()) -> list[Cell]:
     """The cells of ``cells`` that the default suite runs (see :data:`DEFAULT_SUITE`).
 
-    Scenarios named in ``requested`` run even if their rule is disabled.
+    Parameters
+    ----------
+    cells : iterable of Cell
+    chosen : collection of str
+        Dimensions the user chose explicitly, among ``"scenario"``, ``"backend"`` and
+        ``"settings"``: the suite's rules do not cut those (a disabled scenario runs when
+        named, a backend or setting runs when asked for).
     """
     kept = []
-    requested = set(requested)
     for cell in cells:
         rule = DEFAULT_SUITE.get(cell.scenario.name)
         if rule is not None and (
-            (not rule.enabled and cell.scenario.name not in requested)
-            or cell.setting.label not in rule.settings
-            or (rule.backends is not None and cell.backend not in rule.backends)
-            or (cell.problem.joint and not rule.joint)
+            (not rule.enabled and "scenario" not in chosen)
+            or ("settings" not in chosen and cell.setting.label not in rule.settings)
+            or ("backend" not in chosen and rule.backends is not None
+                and cell.backend not in rule.backends)
+            or (cell.problem.joint and not rule.joint and "backend" not in chosen)
         ):
             continue
         kept.append(cell)
@@ -585,8 +591,8 @@ def run(
         Run the cells again even if they are stored (their rows are replaced).
     time_limit : float
         Budget of each cell (s). It is passed to the solvers and checked between chunks;
-        with ``isolate`` a cell still running :data:`GRACE` seconds after it is killed
-        and stored with status ``"time_limit"``.
+        with ``isolate``, a cell still running :data:`GRACE` seconds after its budget
+        is killed and stored with status ``"time_limit"``.
     progress : bool
         Show a tqdm progress bar.
     isolate : bool

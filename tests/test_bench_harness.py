@@ -135,3 +135,17 @@ def test_report_and_command_line(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert (tmp_path / "time_per_pose.png").stat().st_size > 1000
     assert main(["list"]) == 0
     assert "thesis_trajectory" in capsys.readouterr().out
+
+
+def test_default_suite_cuts_only_unchosen_dimensions() -> None:
+    cells = harness.plan([SCENARIOS["thesis_long"], SCENARIOS["cogiro_random"]],
+                         [PROBLEMS["min_sum"]], ["closed_form", "cvxpy:CLARABEL"],
+                         harness.ALL_SETTINGS)
+    assert len(cells) == 2 * (2 + 4)  # closed_form cannot warm start, CLARABEL can
+    kept = {c.key for c in harness.default_suite(cells)}
+    assert kept == {("thesis_long", "min_sum", "closed_form", "default/cold")}
+    kept = {c.key for c in harness.default_suite(cells, chosen=["scenario"])}
+    assert kept == {("thesis_long", "min_sum", "closed_form", "default/cold"),
+                    ("cogiro_random", "min_sum", "closed_form", "default/cold"),
+                    ("cogiro_random", "min_sum", "cvxpy:CLARABEL", "default/cold")}
+    assert len(harness.default_suite(cells, chosen=["scenario", "backend", "settings"])) == 12
