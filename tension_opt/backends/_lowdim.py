@@ -61,30 +61,43 @@ def widen(lo: NDArray, hi: NDArray, n: NDArray, scale: NDArray) -> tuple[NDArray
 
 def min_of_max_lines(slopes: NDArray, intercepts: NDArray, lo: NDArray, hi: NDArray
                      ) -> tuple[NDArray, NDArray]:
-    """Minimise ``max_j (slopes_j t + intercepts_j)`` over ``t`` in ``[lo, hi]``.
+    """Minimise ``f(t) = max_j (slopes_j t + intercepts_j)`` over ``t`` in ``[lo, hi]``.
+
+    ``f`` is convex; its free minimum is where the highest crossing of a rising and a
+    falling line lies (in one dimension two lines decide the minimum), and the minimum
+    over the interval is that point clipped to it.
 
     Parameters
     ----------
     slopes, intercepts : ndarray, shape (N, J)
+        Lines with intercept ``-inf`` are ignored.
     lo, hi : ndarray, shape (N,)
-        May be infinite; the problem must then be bounded in that direction.
+        May be infinite; ``t`` is then infinite where ``f`` keeps falling.
 
     Returns
     -------
     t, value : ndarray, shape (N,)
     """
-    a_j, a_k = slopes[:, :, None], slopes[:, None, :]
+    rising = (slopes > 0) & np.isfinite(intercepts)
+    falling = (slopes < 0) & np.isfinite(intercepts)
+    a_i, a_j = slopes[:, :, None], slopes[:, None, :]
+    b_i, b_j = intercepts[:, :, None], intercepts[:, None, :]
+    pair = rising[:, :, None] & falling[:, None, :]
     with np.errstate(divide="ignore", invalid="ignore"):
-        cross = (intercepts[:, None, :] - intercepts[:, :, None]) / (a_j - a_k)
-    cross = cross.reshape(len(lo), -1)
-    candidates = np.concatenate([cross, lo[:, None], hi[:, None]], axis=1)
-    candidates = np.where(np.isfinite(candidates), candidates, np.nan)
-    candidates = np.clip(candidates, lo[:, None], hi[:, None])
-    values = (slopes[:, None, :] * candidates[:, :, None] + intercepts[:, None, :]).max(axis=2)
-    values = np.where(np.isnan(values), np.inf, values)
-    best = np.argmin(values, axis=1)
+        t_cross = np.where(pair, (b_j - b_i) / (a_i - a_j), np.nan)
+        v_cross = np.where(pair, a_i * t_cross + b_i, -np.inf)
+    flat = v_cross.reshape(len(lo), -1)
+    best = np.argmax(flat, axis=1)
     rows = np.arange(len(lo))
-    return candidates[rows, best], values[rows, best]
+    has_pair = pair.reshape(len(lo), -1).any(axis=1)
+    t_free = np.where(has_pair, t_cross.reshape(len(lo), -1)[rows, best],
+                      np.where(rising.any(axis=1), -np.inf,
+                               np.where(falling.any(axis=1), np.inf, 0.0)))
+    t = np.clip(t_free, lo, hi)
+    with np.errstate(invalid="ignore"):
+        value = np.where(np.isfinite(intercepts), slopes * t[:, None] + intercepts,
+                         -np.inf).max(axis=1)
+    return t, value
 
 
 def infeasibility_1d(T0: NDArray, n: NDArray, lb: NDArray, ub: NDArray) -> NDArray:

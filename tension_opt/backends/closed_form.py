@@ -85,14 +85,97 @@ class ClosedFormBackend(Backend):
 
     def solve(self, form: StandardForm, **options: Any) -> RawResult:
         t0 = time.perf_counter()
+        if (form.n, form.m) == (3, 4) and form.kind in ("lp", "qp"):
+            T, status, unique, infeas = self._solve_point4(form)
+        else:
+            T, status, unique, infeas = self._solve_general(form)
+        elapsed = time.perf_counter() - t0
+        return RawResult(T, status, np.zeros(form.N, dtype=int), 0.0, elapsed, unique, infeas)
+
+    def _solve_general(self, form: StandardForm) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         T0, Z = pinv_and_null(form.A, form.b)
         scale = form.scale()
         if Z.shape[2] == 1:
-            T, status, unique, infeas = self._solve_1d(form, T0, Z[..., 0], scale)
+            return self._solve_1d(form, T0, Z[..., 0], scale)
+        return self._solve_2d(form, T0, Z, scale)
+
+    def _solve_point4(self, form: StandardForm) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """Four cables, three equations: the 1-D formulas on one array per component.
+
+        Working on contiguous (N,) arrays instead of (N, 3, 4) blocks keeps every
+        operation a plain vector operation. A particular solution comes from cables 1-3
+        (Cramer's rule through cross products) and the null vector from the same cross
+        products. Poses where cables 1-3 are nearly coplanar, or with no feasible
+        tension, or with a cable that does not move along the null space, are handed to
+        the general path.
+        """
+        A, b = form.A, form.b
+        u = [[np.ascontiguousarray(A[:, r, k]) for r in range(3)] for k in range(4)]
+        bx, by, bz = (np.ascontiguousarray(b[:, r]) for r in range(3))
+
+        def cross(p: list[NDArray], q: list[NDArray]) -> list[NDArray]:
+            return [p[1] * q[2] - p[2] * q[1], p[2] * q[0] - p[0] * q[2],
+                    p[0] * q[1] - p[1] * q[0]]
+
+        def dot(p: list[NDArray], q: list[NDArray]) -> NDArray:
+            return p[0] * q[0] + p[1] * q[1] + p[2] * q[2]
+
+        c23, c31, c12 = cross(u[1], u[2]), cross(u[2], u[0]), cross(u[0], u[1])
+        det = dot(u[0], c23)
+        bb = [bx, by, bz]
+        inv = 1.0 / det
+        Tp = [dot(bb, c23) * inv, dot(bb, c31) * inv, dot(bb, c12) * inv,
+              np.zeros_like(det)]
+        # Null vector: u1 (u4.c23) + u2 (u4.c31) + u3 (u4.c12) - u4 det(u1, u2, u3) = 0.
+        n = [dot(u[3], c23), dot(u[3], c31), dot(u[3], c12), -det]
+        nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]
+        n_max = np.maximum(np.maximum(np.abs(n[0]), np.abs(n[1])),
+                           np.maximum(np.abs(n[2]), np.abs(n[3])))
+        lo = np.full(form.N, -np.inf)
+        hi = np.full(form.N, np.inf)
+        moving = np.ones(form.N, dtype=bool)
+        for k in range(4):
+            nk = n[k]
+            moving &= np.abs(nk) > 1e-9 * n_max
+            lbk = form.lb[:, k]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                r_lb = (lbk - Tp[k]) / nk
+                lo = np.maximum(lo, np.where(nk > 0, r_lb, -np.inf))
+                hi = np.minimum(hi, np.where(nk < 0, r_lb, np.inf))
+                ubk = form.ub[:, k]
+                if np.isfinite(ubk).any():
+                    r_ub = (ubk - Tp[k]) / nk
+                    lo = np.maximum(lo, np.where(nk < 0, r_ub, -np.inf))
+                    hi = np.minimum(hi, np.where(nk > 0, r_ub, np.inf))
+        # The minimum-norm point of the line: t = -Tp.n / n.n.
+        t_norm = -(Tp[0] * n[0] + Tp[1] * n[1] + Tp[2] * n[2]) / nn
+        c, q = form.c, form.q
+        if form.kind == "lp":
+            slope = c[:, 0] * n[0] + c[:, 1] * n[1] + c[:, 2] * n[2] + c[:, 3] * n[3]
+            c_norm = np.sqrt((c * c).sum(axis=1))
+            flat = np.abs(slope) <= _lowdim.FLAT_TOL * c_norm * np.sqrt(nn)
+            t = np.where(flat, np.clip(t_norm, lo, hi), np.where(slope > 0, lo, hi))
+            unique = ~flat | (lo == hi)
         else:
-            T, status, unique, infeas = self._solve_2d(form, T0, Z, scale)
-        elapsed = time.perf_counter() - t0
-        return RawResult(T, status, np.zeros(form.N, dtype=int), 0.0, elapsed, unique, infeas)
+            num = sum((q[:, k] * Tp[k] + c[:, k]) * n[k] for k in range(4))
+            den = sum(q[:, k] * n[k] * n[k] for k in range(4))
+            t = np.clip(-num / den, lo, hi)
+            unique = np.ones(form.N, dtype=bool)
+        T = np.empty((form.N, 4))
+        for k in range(4):
+            T[:, k] = Tp[k] + t * n[k]
+        # Poses the shortcut cannot settle exactly go through the general path.
+        scale = np.sqrt(bx * bx + by * by + bz * bz)
+        redo = ~(np.abs(det) > 1e-9) | ~moving | ~(lo <= hi) | ~np.isfinite(t)
+        redo |= ~np.isfinite(T).all(axis=1)
+        status = status_array(form.N)
+        infeas = np.full(form.N, np.nan)
+        del scale
+        if redo.any():
+            idx = np.flatnonzero(redo)
+            T_r, st_r, un_r, inf_r = self._solve_general(form.subset(idx))
+            T[idx], status[idx], unique[idx], infeas[idx] = T_r, st_r, un_r, inf_r
+        return T, status, unique, infeas
 
     def _solve_1d(self, form: StandardForm, T0: NDArray, n: NDArray, scale: NDArray
                   ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
