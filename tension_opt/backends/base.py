@@ -126,15 +126,16 @@ def lp_optimum_is_unique(form: StandardForm, T: NDArray) -> NDArray:
         E = np.concatenate([form.A, form.c[:, None, :]], axis=1)
     if form.G is not None:  # rows of G at equality behave as upper bounds on G d
         raise InvalidInputError("the uniqueness test does not take extra inequality rows")
-    _, s, vt = np.linalg.svd(E, full_matrices=True)
+    s = np.linalg.svd(E, compute_uv=False)
     rank = (s > 1e-10 * s[:, :1]).sum(axis=1)
     unique = np.ones(N, dtype=bool)
     for k in np.unique(rank):
-        sel = np.flatnonzero(rank == k)
         dim = m - int(k)
         if dim == 0:
             continue
-        basis = np.swapaxes(vt[sel, int(k):, :], 1, 2)  # (s, m, dim)
+        sel = np.flatnonzero(rank == k)
+        vt = np.linalg.svd(E[sel], full_matrices=True)[2]
+        basis = np.swapaxes(vt[:, int(k):, :], 1, 2)  # (s, m, dim)
         lower, upper = at_lb[sel], at_ub[sel]
         if dim == 1:
             v = basis[..., 0]
@@ -210,7 +211,19 @@ def available_backends() -> list[str]:
 
 
 def get_backend(name: str) -> Backend:
-    """Backend instance for a registry name such as ``"cvxpy:CLARABEL"``."""
+    """Backend instance for a registry name such as ``"cvxpy:CLARABEL"``.
+
+    Backends hold no per-call state, so one instance per name is kept and reused.
+    """
+    if name not in _INSTANCES:
+        _INSTANCES[name] = _make_backend(name)
+    return _INSTANCES[name]
+
+
+_INSTANCES: dict[str, Backend] = {}
+
+
+def _make_backend(name: str) -> Backend:
     _load_all()
     family, _, solver = name.partition(":")
     if family not in _FACTORIES:

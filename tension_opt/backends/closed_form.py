@@ -165,12 +165,10 @@ class ClosedFormBackend(Backend):
         for k in range(4):
             T[:, k] = Tp[k] + t * n[k]
         # Poses the shortcut cannot settle exactly go through the general path.
-        scale = np.sqrt(bx * bx + by * by + bz * bz)
         redo = ~(np.abs(det) > 1e-9) | ~moving | ~(lo <= hi) | ~np.isfinite(t)
         redo |= ~np.isfinite(T).all(axis=1)
         status = status_array(form.N)
         infeas = np.full(form.N, np.nan)
-        del scale
         if redo.any():
             idx = np.flatnonzero(redo)
             T_r, st_r, un_r, inf_r = self._solve_general(form.subset(idx))

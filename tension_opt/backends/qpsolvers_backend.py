@@ -9,6 +9,7 @@ from __future__ import annotations
 import time
 import warnings
 from ctypes import c_int
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -33,7 +34,7 @@ HIGH_ACCURACY: dict[str, dict[str, Any]] = {
              "eps_duality_gap_rel": 1e-10},
     "clarabel": {"tol_gap_abs": 1e-10, "tol_gap_rel": 1e-10, "tol_feas": 1e-10},
     "highs": {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10},
-    "scs": {"eps_abs": 1e-10, "eps_rel": 1e-10, "max_iters": 200000},
+    "scs": {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iters": 100000},
     "quadprog": {},
 }
 #: Options always passed: ProxQP otherwise runs millions of iterations on an infeasible pose.
@@ -90,7 +91,7 @@ class QpsolversBackend(Backend):
     def solver(self) -> str:
         return self._solver
 
-    @property
+    @cached_property
     def version(self) -> str:
         if self._solver == "daqp":
             from importlib.metadata import version
@@ -172,16 +173,29 @@ class QpsolversBackend(Backend):
         x_all, status, iters = pose_loop_result(N, k)
         setup += time.perf_counter() - t0
         t0 = time.perf_counter()
-        x_prev = None
         solve = daqp.solve
-        for i in range(N):
-            x, _, flag, info = solve(H[i], batch.c[i], rows[i], upper[i], lower[i], sense,
-                                     primal_start=x_prev if warm else None, **settings)
-            iters[i] = info["iterations"]
-            status[i] = _DAQP_EXIT.get(flag, Status.SOLVER_ERROR)
-            if flag > 0:
-                x_all[i] = x
-                x_prev = x
+        H, c, upper, lower = list(H), list(batch.c), list(upper), list(lower)
+        results = []
+        if warm or settings:
+            x_prev = None
+            for i in range(N):
+                out = solve(H[i], c[i], rows[i], upper[i], lower[i], sense,
+                            primal_start=x_prev if warm else None, **settings)
+                results.append(out)
+                if out[2] > 0:
+                    x_prev = out[0]
+        else:  # the common case, kept free of keyword handling in the loop
+            results = [solve(H[i], c[i], rows[i], upper[i], lower[i], sense)
+                       for i in range(N)]
+        flags = np.array([out[2] for out in results])
+        iters = np.array([out[3]["iterations"] for out in results], dtype=int)
+        good = flags > 0
+        if good.any():
+            x_all[good] = np.array([out[0] for out, ok in zip(results, good, strict=True)
+                                    if ok])
+        status[good] = Status.OPTIMAL
+        for i in np.flatnonzero(~good):
+            status[i] = _DAQP_EXIT.get(int(flags[i]), Status.SOLVER_ERROR)
         elapsed = time.perf_counter() - t0
         return RawResult(batch.tensions(x_all), status, iters, setup, elapsed)
 
