@@ -62,6 +62,13 @@ def closed_form_rows(robot: to.CableRobot, poses: np.ndarray, repeat: int) -> li
     return rows
 
 
+def _daqp_loop(solve: Callable[..., object], H: list, c: list, A: list, upper: list,
+               lower: list, sense: np.ndarray) -> None:
+    """Call DAQP on each pose in a plain loop: the baseline of the ratio."""
+    for i in range(len(H)):
+        solve(H[i], c[i], A[i], upper[i], lower[i], sense)
+
+
 def daqp_rows(robot: to.CableRobot, poses: np.ndarray, repeat: int) -> list[tuple]:
     import daqp
 
@@ -75,13 +82,8 @@ def daqp_rows(robot: to.CableRobot, poses: np.ndarray, repeat: int) -> list[tupl
         lower = np.concatenate([np.maximum(batch.lb, -1e30), batch.beq], axis=1)
         sense = np.zeros(k + n, dtype=c_int)
         sense[k:] = 5
-        rows_A = batch.Aeq
-
-        def direct() -> None:
-            for i in range(len(poses)):
-                daqp.solve(H[i], batch.c[i], rows_A[i], upper[i], lower[i], sense)
-
-        t_direct = _median_time(direct, repeat)
+        data = (H, list(batch.c), list(batch.Aeq), list(upper), list(lower))
+        t_direct = _median_time(lambda d=data, s=sense: _daqp_loop(daqp.solve, *d, s), repeat)
         t_ours = _median_time(
             lambda o=objective: to.distribute(robot, poses, o, "qpsolvers:daqp"), repeat)
         rows.append((f"qpsolvers:daqp {objective}: distribute()", len(poses),

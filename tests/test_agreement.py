@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import random_cogiro_poses, random_thesis_poses
 
 import tension_opt as to
-from conftest import random_cogiro_poses, random_thesis_poses
 
 N_POSES = 1000
 REL_TOL = 1e-6
