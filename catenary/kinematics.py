@@ -35,7 +35,6 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 import tension_opt
 from tension_opt import CableRobot, TensionProblem
@@ -56,13 +55,6 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-# Rows of the full spatial wrench (fx, fy, fz, mx, my, mz) kept for each robot kind.
-_WRENCH_ROWS: dict[str, tuple[int, ...]] = {
-    "point3": (0, 1, 2),
-    "planar_point2": (0, 2),
-    "planar3": (0, 1, 5),
-    "spatial6": (0, 1, 2, 3, 4, 5),
-}
 _E_Z = np.array([0.0, 0.0, 1.0])
 
 
@@ -192,26 +184,8 @@ class _Geometry:
     chord: FloatArray  # (N, m) straight length
 
 
-def _frames(robot: CableRobot, poses: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Platform position (N, 3) and rotation matrices (N, 3, 3) of validated poses."""
-    N = poses.shape[0]
-    position = np.zeros((N, 3))
-    R = np.broadcast_to(np.eye(3), (N, 3, 3))
-    if robot.kind == "point3":
-        position[:] = poses
-    elif robot.kind == "planar_point2":
-        position[:, 0], position[:, 2] = poses[:, 0], poses[:, 1]
-    elif robot.kind == "planar3":
-        position[:, :2] = poses[:, :2]
-        R = Rotation.from_rotvec(np.outer(poses[:, 2], _E_Z)).as_matrix().reshape(N, 3, 3)
-    else:
-        position[:] = poses[:, :3]
-        R = Rotation.from_rotvec(poses[:, 3:]).as_matrix().reshape(N, 3, 3)
-    return position, R
-
-
 def _geometry(robot: CableRobot, poses: FloatArray) -> _Geometry:
-    position, R = _frames(robot, poses)
+    position, R = robot.frames(poses)
     arm = np.einsum("nij,mj->nmi", R, robot.attachments)
     d = robot.anchors[None] - (position[:, None, :] + arm)
     x = np.hypot(d[..., 0], d[..., 1])
@@ -240,17 +214,10 @@ def _pose_maps(kind: str) -> tuple[FloatArray, FloatArray]:
     return np.hstack([eye, zero]), np.hstack([zero, eye])
 
 
-def _apply_step(kind: str, poses: FloatArray, step: FloatArray) -> FloatArray:
-    if kind != "spatial6":
-        return poses + step
-    rot = Rotation.from_rotvec(step[:, 3:]) * Rotation.from_rotvec(poses[:, 3:])
-    return np.concatenate([poses[:, :3] + step[:, :3], rot.as_rotvec().reshape(-1, 3)], axis=1)
-
-
 def _cable_wrench(robot: CableRobot, forces: FloatArray, arm: FloatArray) -> FloatArray:
     """Total wrench (N, n) of cable forces (N, m, 3) applied at the arms (N, m, 3)."""
     full = np.concatenate([forces.sum(axis=1), np.cross(arm, forces).sum(axis=1)], axis=-1)
-    return full[:, list(_WRENCH_ROWS[robot.kind])]
+    return full[:, list(robot.wrench_rows)]
 
 
 def _wrenches(forces: FloatArray, arm: FloatArray, rows: list[int]) -> FloatArray:
@@ -461,7 +428,7 @@ def _scp(
     bounded = problem.objective is not Objective.PINV
     lb0, ub0 = problem.bounds(robot, p.shape[0])
     b = robot.required_wrench(p, wrench)
-    rows = list(_WRENCH_ROWS[robot.kind])
+    rows = list(robot.wrench_rows)
     N, m = geo.x.shape
     T = straight.tensions.copy()
     H, V_A, V_B, L0 = (np.full((N, m), np.nan) for _ in range(4))
@@ -804,7 +771,7 @@ def forward_kinematics(
             if not todo.any():
                 break
             a = alpha[todo][:, None]
-            tp = _apply_step(robot.kind, pa[todo], a * dp[todo])
+            tp = robot.displace(pa[todo], a * dp[todo])
             tH, tV = Ha[todo] + a * dH[todo], Va[todo] + a * dV[todo]
             wt = None if wr is None else wr[todo]
             rt, _ = _fk_system(
@@ -925,7 +892,7 @@ def _fk_system(
     """
     k = p.shape[0]
     n, m = robot.dof, robot.m
-    rows = list(_WRENCH_ROWS[robot.kind])
+    rows = list(robot.wrench_rows)
     geo = _geometry(robot, p)
     with np.errstate(all="ignore"):
         xs, zs = spans(H, V, L, w, EA)

@@ -196,6 +196,11 @@ class CableRobot:
         return self.m - self.dof
 
     @property
+    def wrench_rows(self) -> tuple[int, ...]:
+        """Rows of the spatial wrench (fx, fy, fz, mx, my, mz) that the kind keeps."""
+        return _WRENCH_ROWS[self.kind]
+
+    @property
     def weight(self) -> float:
         """Platform weight ``mass * g`` (N)."""
         return self.mass * self.g
@@ -220,8 +225,8 @@ class CableRobot:
             )
         return _as_finite("poses", arr)
 
-    def _frames(self, poses: NDArray) -> tuple[NDArray, NDArray]:
-        """Platform position (N, 3) and rotation matrices (N, 3, 3) of validated poses."""
+    def frames(self, poses: NDArray) -> tuple[NDArray, NDArray]:
+        """Platform position (N, 3) and rotation matrices (N, 3, 3) of validated poses (N, n)."""
         N = poses.shape[0]
         position = np.zeros((N, 3))
         if self.kind == "point3":
@@ -243,7 +248,7 @@ class CableRobot:
     def attachment_points(self, poses: ArrayLike) -> NDArray:
         """Attachment points in the base frame, shape (N, m, 3) (m)."""
         p = self.as_poses(poses)
-        position, R = self._frames(p)
+        position, R = self.frames(p)
         return position[:, None, :] + np.einsum("nij,mj->nmi", R, self.attachments)
 
     # ------------------------------------------------------------- kinematics
@@ -271,7 +276,7 @@ class CableRobot:
         return lengths, unit
 
     def _cables(self, p: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-        position, R = self._frames(p)
+        position, R = self.frames(p)
         arm = np.einsum("nij,mj->nmi", R, self.attachments)  # R a_i, (N, m, 3)
         vec = self.anchors[None] - (position[:, None, :] + arm)
         lengths = np.sqrt(np.einsum("nmi,nmi->nm", vec, vec))
@@ -309,7 +314,7 @@ class CableRobot:
         full = np.zeros((N, 6))
         full[:, :3] = force
         if self.kind in ("planar3", "spatial6"):
-            _, R = self._frames(p)
+            _, R = self.frames(p)
             full[:, 3:] = np.cross(R @ self.com, force)
         return full[:, list(_WRENCH_ROWS[self.kind])]
 
@@ -393,7 +398,7 @@ class CableRobot:
             # Normal equations of the Gauss-Newton step, with a tiny damping for safety.
             JtJ = np.einsum("kmi,kmj->kij", J, J) + 1e-12 * np.eye(self.dof)
             step = -np.linalg.solve(JtJ, np.einsum("kmi,km->ki", J, r)[..., None])[..., 0]
-            x[idx] = self._apply_step(x[idx], step)
+            x[idx] = self.displace(x[idx], step)
             iterations[idx] += 1
             done = np.abs(step).max(axis=1) < tol
             active[idx[done]] = False
@@ -403,7 +408,9 @@ class CableRobot:
         status = np.where(active, "not_converged", met)
         return ForwardKinematicsResult(x, residual, iterations, status)
 
-    def _apply_step(self, x: NDArray, step: NDArray) -> NDArray:
+    def displace(self, x: NDArray, step: NDArray) -> NDArray:
+        """Poses (N, n) moved by steps (N, n); the angular part of a spatial step is a
+        rotation vector applied in the base frame (left-multiplied)."""
         if self.kind != "spatial6":
             return x + step
         # The angular part of the step is a rotation in the base frame (left-multiplied).
