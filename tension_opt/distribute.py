@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.backends.base import Backend, RawResult, available_backends, get_backend
-from tension_opt.errors import InvalidInputError, UnsupportedProblemError
+from tension_opt.errors import UnsupportedProblemError
 from tension_opt.problems import Objective, StandardForm, TensionProblem, as_problem
 from tension_opt.robot import CableRobot
 from tension_opt.solution import Status, TensionSolution
@@ -63,7 +63,7 @@ def distribute(
     A = robot.structure_matrices(p)
     b = robot.required_wrench(p, wrench)
     geometry_time = time.perf_counter() - t0
-    chosen = _resolve(backend, problem, robot)
+    chosen = _resolve(backend, problem, robot, A, b)
     prev = None if previous is None else np.asarray(previous, dtype=float)
     if problem.is_sequential and (prev is None or prev.ndim == 1):
         raw, lb, ub, prevs = _solve_sequence(chosen, problem, robot, A, b, prev, options)
@@ -76,15 +76,16 @@ def distribute(
     return _finish(raw, problem, chosen, A, b, lb, ub, prevs)
 
 
-def _resolve(backend: str | Backend, problem: TensionProblem, robot: CableRobot) -> Backend:
+def _resolve(backend: str | Backend, problem: TensionProblem, robot: CableRobot, A: NDArray,
+             b: NDArray) -> Backend:
     if isinstance(backend, Backend):
         return backend
     if backend != "auto":
         return get_backend(backend)
     installed = set(available_backends())
+    # What a backend supports depends on the problem's shape, not on the values.
     probe = problem.standard_form_from(
-        robot, np.zeros((1, robot.dof, robot.m)) + np.eye(robot.dof, robot.m),
-        np.zeros((1, robot.dof)), None if not problem.is_sequential else np.zeros(robot.m))
+        robot, A, b, None if not problem.is_sequential else np.zeros(robot.m))
     for name in _AUTO_ORDER:
         if name in installed:
             candidate = get_backend(name)
@@ -161,8 +162,3 @@ def _finish(raw: RawResult, problem: TensionProblem, backend: Backend, A: NDArra
         solver=backend.solver, solver_version=backend.version, problem=problem,
         extras=raw.extras,
     )
-
-
-def _validate_previous(previous: ArrayLike | None, m: int) -> None:
-    if previous is not None and np.shape(previous)[-1] != m:
-        raise InvalidInputError(f"previous must have shape ({m},) or (N, {m})")
