@@ -322,7 +322,8 @@ def _settings_lines() -> list[str]:
     return [
         f"- Cell time limit: {harness.TIME_LIMIT:g} s by default (checked between chunks and "
         "passed to the solver as `time_limit`).",
-        f"- Time per pose: each cell solves its poses in at most {harness.MAX_CHUNKS} chunks; "
+        f"- Time per pose: each cell solves its poses in at most {harness.MAX_CHUNKS} chunks "
+        f"of at least {harness.MIN_CHUNK} poses (one chunk for shorter scenarios); "
         "a chunk's setup + solve time (as the library reports it) divided by its number of "
         "poses is one sample; median and 95th percentile over the chunks. Sequential problems "
         "are solved pose by pose inside a chunk; joint smoothing is one chunk (one sample).",
