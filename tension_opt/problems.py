@@ -326,11 +326,6 @@ class StandardForm:
         """True for LPs, whose optimum may be non-unique."""
         return self.kind in ("lp", "minmax")
 
-    @property
-    def has_bounds(self) -> bool:
-        """True if any bound is finite."""
-        return bool(np.isfinite(self.lb).any() or np.isfinite(self.ub).any())
-
     def subset(self, index: NDArray) -> StandardForm:
         """The problems of the poses ``index`` only."""
         pick = lambda a: None if a is None else a[index]  # noqa: E731

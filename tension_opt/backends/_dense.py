@@ -53,15 +53,6 @@ class DenseBatch:
         """Tensions (N, m) of scaled solutions ``x`` (N, k)."""
         return x[:, : self.m] * self.scale[:, None]
 
-    def scaled(self, T: NDArray) -> NDArray:
-        """Scaled variables (N, k) of tensions ``T`` (N, m), epigraph at its tight value."""
-        x = T / self.scale[:, None]
-        if self.k == self.m:
-            return x
-        tau = np.nanmax(x * self._v, axis=1) if self._v is not None else np.zeros(self.N)
-        return np.concatenate([x, tau[:, None]], axis=1)
-
-    _v: NDArray | None = None
 
 
 def dense_batch(form: StandardForm) -> DenseBatch:
@@ -77,7 +68,6 @@ def dense_batch(form: StandardForm) -> DenseBatch:
     ub = form.ub / s[:, None]
     G = np.zeros((N, 0, m)) if form.G is None else form.G
     h = np.zeros((N, 0)) if form.h is None else form.h / s[:, None]
-    v = None
     if form.minmax is not None:
         v = form.minmax
         k = m + 1
@@ -93,6 +83,4 @@ def dense_batch(form: StandardForm) -> DenseBatch:
         G = np.concatenate([np.concatenate([G, np.zeros((N, G.shape[1], 1))], axis=2), rows],
                            axis=1)
         h = np.concatenate([h, np.zeros((N, m))], axis=1)
-    batch = DenseBatch(P, c, Aeq, beq, G, h, lb, ub, s, m)
-    batch._v = v
-    return batch
+    return DenseBatch(P, c, Aeq, beq, G, h, lb, ub, s, m)
