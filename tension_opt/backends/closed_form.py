@@ -100,80 +100,63 @@ class ClosedFormBackend(Backend):
         return self._solve_2d(form, T0, Z, scale)
 
     def _solve_point4(self, form: StandardForm) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-        """Four cables, three equations: the 1-D formulas on one array per component.
+        """Four cables, three equations: the 1-D formulas with poses along the last axis.
 
-        Working on contiguous (N,) arrays instead of (N, 3, 4) blocks keeps every
-        operation a plain vector operation. A particular solution comes from cables 1-3
-        (Cramer's rule through cross products) and the null vector from the same cross
-        products. Poses where cables 1-3 are nearly coplanar, or with no feasible
-        tension, or with a cable that does not move along the null space, are handed to
-        the general path.
+        Arrays are laid out (component, pose) so that every operation runs over long
+        contiguous rows, and few operations are needed (small batches are dominated by
+        their count). A particular solution comes from cables 1-3 (Cramer's rule through
+        cross products), the null vector from the same cross products. Poses where cables
+        1-3 are nearly coplanar, with no feasible tension, or with a cable that does not
+        move along the null space, are handed to the general path.
         """
-        A, b = form.A, form.b
-        u = [[np.ascontiguousarray(A[:, r, k]) for r in range(3)] for k in range(4)]
-        bx, by, bz = (np.ascontiguousarray(b[:, r]) for r in range(3))
-
-        def cross(p: list[NDArray], q: list[NDArray]) -> list[NDArray]:
-            return [p[1] * q[2] - p[2] * q[1], p[2] * q[0] - p[0] * q[2],
-                    p[0] * q[1] - p[1] * q[0]]
-
-        def dot(p: list[NDArray], q: list[NDArray]) -> NDArray:
-            return p[0] * q[0] + p[1] * q[1] + p[2] * q[2]
-
-        c23, c31, c12 = cross(u[1], u[2]), cross(u[2], u[0]), cross(u[0], u[1])
-        det = dot(u[0], c23)
-        bb = [bx, by, bz]
-        inv = 1.0 / det
-        Tp = [dot(bb, c23) * inv, dot(bb, c31) * inv, dot(bb, c12) * inv,
-              np.zeros_like(det)]
+        N = form.N
+        U = np.ascontiguousarray(form.A.transpose(2, 1, 0))  # (cable, xyz, pose)
+        B = np.ascontiguousarray(form.b.T)  # (xyz, pose)
+        # Rows: u2 x u3, u3 x u1, u1 x u2.
+        C = np.cross(U[[1, 2, 0]], U[[2, 0, 1]], axis=1)
+        det = np.einsum("ip,ip->p", U[0], C[0])
+        Tp = np.zeros((4, N))
+        Tp[:3] = np.einsum("ip,jip->jp", B, C) / det
         # Null vector: u1 (u4.c23) + u2 (u4.c31) + u3 (u4.c12) - u4 det(u1, u2, u3) = 0.
-        n = [dot(u[3], c23), dot(u[3], c31), dot(u[3], c12), -det]
-        nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]
-        n_max = np.maximum(np.maximum(np.abs(n[0]), np.abs(n[1])),
-                           np.maximum(np.abs(n[2]), np.abs(n[3])))
-        lo = np.full(form.N, -np.inf)
-        hi = np.full(form.N, np.inf)
-        moving = np.ones(form.N, dtype=bool)
-        for k in range(4):
-            nk = n[k]
-            moving &= np.abs(nk) > 1e-9 * n_max
-            lbk = form.lb[:, k]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                r_lb = (lbk - Tp[k]) / nk
-                lo = np.maximum(lo, np.where(nk > 0, r_lb, -np.inf))
-                hi = np.minimum(hi, np.where(nk < 0, r_lb, np.inf))
-                ubk = form.ub[:, k]
-                if np.isfinite(ubk).any():
-                    r_ub = (ubk - Tp[k]) / nk
-                    lo = np.maximum(lo, np.where(nk < 0, r_ub, -np.inf))
-                    hi = np.minimum(hi, np.where(nk > 0, r_ub, np.inf))
-        # The minimum-norm point of the line: t = -Tp.n / n.n.
-        t_norm = -(Tp[0] * n[0] + Tp[1] * n[1] + Tp[2] * n[2]) / nn
-        c, q = form.c, form.q
-        if form.kind == "lp":
-            slope = c[:, 0] * n[0] + c[:, 1] * n[1] + c[:, 2] * n[2] + c[:, 3] * n[3]
-            c_norm = np.sqrt((c * c).sum(axis=1))
-            flat = np.abs(slope) <= _lowdim.FLAT_TOL * c_norm * np.sqrt(nn)
-            t = np.where(flat, np.clip(t_norm, lo, hi), np.where(slope > 0, lo, hi))
-            unique = ~flat | (lo == hi)
-        else:
-            num = sum((q[:, k] * Tp[k] + c[:, k]) * n[k] for k in range(4))
-            den = sum(q[:, k] * n[k] * n[k] for k in range(4))
-            t = np.clip(-num / den, lo, hi)
-            unique = np.ones(form.N, dtype=bool)
-        T = np.empty((form.N, 4))
-        for k in range(4):
-            T[:, k] = Tp[k] + t * n[k]
+        n = np.empty((4, N))
+        n[:3] = np.einsum("ip,jip->jp", U[3], C)
+        n[3] = -det
+        nn = np.einsum("kp,kp->p", n, n)
+        n_abs = np.abs(n)
+        moving = (n_abs > 1e-9 * n_abs.max(axis=0)).all(axis=0)
+        up = n > 0
+        lb, ub = form.lb.T, form.ub.T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r_lb = (lb - Tp) / n
+            lo = np.where(up, r_lb, -np.inf).max(axis=0)
+            hi = np.where(up, np.inf, r_lb).min(axis=0)
+            if np.isfinite(ub).any():
+                r_ub = (ub - Tp) / n
+                lo = np.maximum(lo, np.where(up, -np.inf, r_ub).max(axis=0))
+                hi = np.minimum(hi, np.where(up, r_ub, np.inf).min(axis=0))
+            c, q = form.c.T, form.q.T
+            if form.kind == "lp":
+                slope = np.einsum("kp,kp->p", c, n)
+                flat = np.abs(slope) <= _lowdim.FLAT_TOL * np.sqrt(
+                    np.einsum("kp,kp->p", c, c) * nn)
+                # A tie: the minimum-norm point of the line, t = -Tp.n / n.n, clipped.
+                t_norm = np.clip(-np.einsum("kp,kp->p", Tp, n) / nn, lo, hi)
+                t = np.where(flat, t_norm, np.where(slope > 0, lo, hi))
+                unique = ~flat | (lo == hi)
+            else:
+                t = -np.einsum("kp,kp->p", q * Tp + c, n) / np.einsum("kp,kp,kp->p", q, n, n)
+                t = np.clip(t, lo, hi)
+                unique = np.ones(N, dtype=bool)
+            T = (Tp + t * n).T
         # Poses the shortcut cannot settle exactly go through the general path.
         redo = ~(np.abs(det) > 1e-9) | ~moving | ~(lo <= hi) | ~np.isfinite(t)
-        redo |= ~np.isfinite(T).all(axis=1)
-        status = status_array(form.N)
-        infeas = np.full(form.N, np.nan)
+        status = status_array(N)
+        infeas = np.full(N, np.nan)
         if redo.any():
             idx = np.flatnonzero(redo)
             T_r, st_r, un_r, inf_r = self._solve_general(form.subset(idx))
             T[idx], status[idx], unique[idx], infeas[idx] = T_r, st_r, un_r, inf_r
-        return T, status, unique, infeas
+        return np.ascontiguousarray(T), status, unique, infeas
 
     def _solve_1d(self, form: StandardForm, T0: NDArray, n: NDArray, scale: NDArray
                   ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
