@@ -14,6 +14,9 @@ from tension_opt.problems import Objective, StandardForm, TensionProblem, as_pro
 from tension_opt.robot import CableRobot
 from tension_opt.solution import Status, TensionSolution
 
+#: Relative tolerance (of the typical tension) on equilibrium and bounds of a solution.
+FEASIBILITY_TOL = 1e-6
+
 # Preference of backend="auto": exact first, then the fastest iterative solvers.
 _AUTO_ORDER = ("closed_form", "qpsolvers:daqp", "qpsolvers:proxsuite", "qpsolvers:piqp",
                "qpsolvers:highs", "scipy:highs", "cvxpy:CLARABEL", "cvxpy")
@@ -73,7 +76,7 @@ def distribute(
         raw = chosen.solve(form, **options)
         lb, ub, prevs = form.lb, form.ub, form.previous
     raw.setup_time += geometry_time
-    return _finish(raw, problem, chosen, A, b, lb, ub, prevs)
+    return finish(raw, problem, chosen, A, b, lb, ub, prevs)
 
 
 def _resolve(backend: str | Backend, problem: TensionProblem, robot: CableRobot, A: NDArray,
@@ -142,8 +145,9 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
     return result, lbs, ubs, prevs
 
 
-def _finish(raw: RawResult, problem: TensionProblem, backend: Backend, A: NDArray, b: NDArray,
-            lb: NDArray, ub: NDArray, previous: NDArray | None) -> TensionSolution:
+def finish(raw: RawResult, problem: TensionProblem, backend: Backend, A: NDArray, b: NDArray,
+           lb: NDArray, ub: NDArray, previous: NDArray | None) -> TensionSolution:
+    """Turn a backend's raw result into a :class:`TensionSolution` with its diagnostics."""
     T = np.asarray(raw.tensions, dtype=float)
     status = np.asarray(raw.status, dtype=object)
     solved = np.array([s is Status.OPTIMAL or s is Status.INACCURATE for s in status])
@@ -151,6 +155,13 @@ def _finish(raw: RawResult, problem: TensionProblem, backend: Backend, A: NDArra
     residual = np.linalg.norm(np.einsum("nij,nj->ni", A, T) - b, axis=1)
     violation = np.maximum(np.nanmax(np.maximum(lb - T, T - ub), axis=1, initial=0.0), 0.0)
     violation[~solved] = np.nan
+    # A solver's "optimal" is checked where it is cheap: equilibrium and bounds must hold
+    # to FEASIBILITY_TOL of the typical tension, or the pose is reported inaccurate.
+    scale = np.maximum(np.linalg.norm(b, axis=1),
+                       np.where(np.isfinite(lb), np.abs(lb), 0.0).max(axis=1))
+    loose = solved & ((residual > FEASIBILITY_TOL * scale)
+                      | (violation > FEASIBILITY_TOL * scale))
+    status[loose] = Status.INACCURATE
     prev = None if previous is None else np.where(np.isfinite(previous), previous, T)
     objective = problem.evaluate(T, lb, ub, prev)
     unique = np.ones(len(T), dtype=bool) if raw.unique is None else np.asarray(raw.unique)

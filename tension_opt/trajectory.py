@@ -18,8 +18,8 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from tension_opt.backends.base import get_backend
-from tension_opt.distribute import distribute
+from tension_opt.backends.base import Backend, RawResult, get_backend
+from tension_opt.distribute import distribute, finish
 from tension_opt.errors import InvalidInputError, UnsupportedProblemError
 from tension_opt.problems import Objective, as_problem
 from tension_opt.robot import CableRobot
@@ -111,20 +111,25 @@ def smooth_jointly(robot: CableRobot, poses: ArrayLike, objective: Any = "min_su
     x, status, iterations = _solve_path(family, solver, P, q, Aeq, beq, lb, ub, options)
     elapsed = time.perf_counter() - t0
     T = np.full((N, m), np.nan) if x is None else x.reshape(N, m) * s
-    st = status_array(N, status)
-    if status is not Status.OPTIMAL:
-        T[:] = np.nan
-    residual = np.linalg.norm(np.einsum("nij,nj->ni", form.A, T) - form.b, axis=1)
-    violation = np.maximum(np.max(np.maximum(form.lb - T, T - form.ub), axis=1), 0.0)
-    value = problem.evaluate(T, form.lb, form.ub)
-    return TensionSolution(
-        tensions=T, status=st, unique=np.ones(N, dtype=bool), objective=value,
-        residual=residual, bound_violation=violation,
-        iterations=None if iterations is None else np.full(N, iterations),
-        infeasibility=np.full(N, np.nan), setup_time=setup, solve_time=elapsed,
-        backend=f"joint:{backend}", solver=solver or family, solver_version="",
-        problem=problem, extras={"path_iterations": iterations, "weight": weight},
-    )
+    raw = RawResult(T, status_array(N, status),
+                    None if iterations is None else np.full(N, iterations), setup, elapsed,
+                    extras={"path_iterations": iterations, "weight": weight})
+    sol = finish(raw, problem, _JointLabel(backend), form.A, form.b, form.lb, form.ub, None)
+    if not sol.success.all():  # the path is one problem: one inaccurate pose taints it all
+        sol.status[sol.success] = Status.INACCURATE
+    return sol
+
+
+class _JointLabel(Backend):
+    """Names the solver of a joint smoothing in its solution."""
+
+    def __init__(self, backend: str) -> None:
+        self.name = f"joint:{backend}"
+        self._solver = backend.partition(":")[2] or backend
+
+    @property
+    def solver(self) -> str:
+        return self._solver
 
 
 def _solve_path(family: str, solver: str, P: sp.csc_matrix, q: NDArray, Aeq: sp.csc_matrix,
