@@ -119,60 +119,119 @@ def _inv(EA: FloatArray) -> FloatArray:
         return 1.0 / EA
 
 
+def _shaped(shape: tuple[int, ...], *arrays: FloatArray | None) -> tuple[FloatArray | None, ...]:
+    """Flat results back to ``shape`` (numpy scalars for ``shape == ()``)."""
+    if shape == ():
+        return tuple(None if a is None else a[0] for a in arrays)
+    return tuple(None if a is None else a.reshape(shape) for a in arrays)
+
+
 def _evaluate(
-    H: FloatArray,
-    V_B: FloatArray,
-    L0: FloatArray,
-    w: FloatArray,
-    inv_EA: FloatArray,
+    H: ArrayLike,
+    V_B: ArrayLike,
+    L0: ArrayLike,
+    w: ArrayLike,
+    inv_EA: ArrayLike,
     jacobian: bool = True,
-) -> tuple[FloatArray, ...]:
+) -> tuple[FloatArray | None, ...]:
     """Spans and flexibility of broadcastable arrays (the solvers' hot path).
 
-    Returns ``(x, z, F_xx, F_xz, F_zz, x_c)`` where ``x_c`` is the inextensible
-    part of the horizontal span; the ``F`` terms are ``None`` when
-    ``jacobian`` is false.
+    Parameters
+    ----------
+    H, V_B, L0, w : array_like
+        As in :func:`spans` (N, N, m, N/m).
+    inv_EA : array_like
+        ``1/EA`` (1/N), ``0`` for an inextensible cable.
+    jacobian : bool
+        Whether to compute the flexibility terms.
+
+    Returns
+    -------
+    tuple
+        ``(x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B)``, arrays of the broadcast
+        shape: spans (m), flexibility entries (m/N; ``None`` when
+        ``jacobian`` is false), the inextensible part ``x_c`` of the horizontal
+        span (m) and the end tensions (N).
+
+    Notes
+    -----
+    The common case (``V_A``, ``V_B`` of the same sign, ``|u| >= 0.1``) is
+    computed on all elements; the series for small ``u``, the opposite-sign
+    branch and the degenerate limits (``H = 0``, ``S = 0``) are computed only
+    on the index sets that need them and scattered in, so no element pays for
+    a branch it does not use.
     """
+    arrays = np.broadcast_arrays(H, V_B, L0, w, inv_EA)
+    shape = arrays[0].shape
+    H, V_B, L0, w, inv_EA = (np.asarray(a, dtype=np.float64).reshape(-1) for a in arrays)
     with np.errstate(all="ignore"):
-        V_A = V_B - w * L0
+        wL = w * L0
+        V_A = V_B - wL
         T_A = np.hypot(H, V_A)
         T_B = np.hypot(H, V_B)
         S = V_A + V_B
-        same = (V_A >= 0.0) | (V_B <= 0.0)
-
-        # Same-sign branch: asinh(a) - asinh(b) = asinh(w L0 rho).
-        den = V_B * T_A + V_A * T_B
-        rho = np.where(S != 0.0, S / den, 1.0 / H)
-        u = w * L0 * rho
-        usafe = np.where(same, u, 0.0)
-        asinhc_m1 = _asinhc_m1(usafe)
-        x_same = H * L0 * rho * (1.0 + asinhc_m1)
-        # Opposite signs (V_A < 0 < V_B, needs w > 0): the asinh terms add.
-        wsafe = np.where(same, 1.0, w)
-        x_opp = H / wsafe * (np.arcsinh(V_B / H) - np.arcsinh(V_A / H))
-        x_c = np.where(same, x_same, x_opp)
-        # H = 0 (vertical cable) or H so small that V/H overflowed: the limit is 0.
-        x_c = np.where((H == 0.0) | ~np.isfinite(x_c) & np.isfinite(H), 0.0, x_c)
-
-        z_c = L0 * S / (T_A + T_B)
-        x = H * L0 * inv_EA + x_c
+        TS = T_A + T_B
+        # Same-sign branch on every element: asinh(a) - asinh(b) = asinh(wL rho).
+        rho = S / (V_B * T_A + V_A * T_B)
+        u = wL * rho
+        q = np.arcsinh(u) / u  # asinh(u)/u
+        small = np.flatnonzero(np.abs(u) < _SERIES_CUT)  # includes u = 0 and NaN-free
+        if small.size:
+            us = u[small]
+            u2 = us * us
+            qm1_s = u2 * _poly_u2(_ASINHC_M1, u2)
+            q[small] = 1.0 + qm1_s
+        HL = H * L0
+        x_c = HL * rho * q
+        z_c = L0 * S / TS
+        opp = np.flatnonzero((V_A < 0.0) & (V_B > 0.0))
+        if opp.size:
+            # Opposite signs (V_A < 0 < V_B, needs w > 0): the asinh terms add.
+            h, vb, va, wo = H[opp], V_B[opp], V_A[opp], w[opp]
+            x_c[opp] = h / wo * (np.arcsinh(vb / h) - np.arcsinh(va / h))
+        # Degenerate elements: |S| << H (nearly horizontal weightless bar,
+        # where S and the denominator of rho may underflow: rho = 1/H in the
+        # limit), H = 0 (vertical cable) or V/H overflowing (limit x_c = 0).
+        bad = np.flatnonzero(~np.isfinite(x_c) | (H == 0.0) | (np.abs(S) < 1e-150 * H))
+        if bad.size:
+            Sb, Hb = S[bad], H[bad]
+            same = (V_A[bad] >= 0.0) | (V_B[bad] <= 0.0)
+            sb = bad[same & (np.abs(Sb) < 1e-150 * Hb) & (Hb > 0.0)]
+            m = np.maximum(np.abs(V_A[sb]), np.abs(V_B[sb]))
+            a = np.where(m > 0, V_A[sb] / m, 0.0)
+            b = np.where(m > 0, V_B[sb] / m, 0.0)
+            rs = (a + b) / (b * T_A[sb] + a * T_B[sb])
+            rho[sb] = np.where(np.isfinite(rs), rs, 1.0 / H[sb])
+            q[sb] = 1.0
+            x_c[sb] = HL[sb] * rho[sb]
+            hz = bad[(H[bad] == 0.0) | ~np.isfinite(x_c[bad]) & np.isfinite(H[bad])]
+            x_c[hz] = 0.0
+        x = HL * inv_EA + x_c
         z = 0.5 * L0 * S * inv_EA + z_c
         if not jacobian:
-            return x, z, None, None, None, x_c
+            return _shaped(shape, x, z, None, None, None, x_c, T_A, T_B)
 
         TT = T_A * T_B
-        F_xz = -H * L0 * S / (TT * (T_A + T_B))
-        # T_A T_B - H^2 written without cancellation.
-        prod_m_h2 = (H * H * (V_A * V_A + V_B * V_B) + V_A * V_A * V_B * V_B) / (TT + H * H)
-        F_xx_same = L0 * rho * (asinhc_m1 + prod_m_h2 / TT)
-        F_zz_same = H * H * L0 * rho / TT
-        F_xx_opp = (_g(V_B / H) + _g(-V_A / H)) / wsafe
-        F_zz_opp = (V_B / T_B - V_A / T_A) / wsafe
+        H2 = H * H
         base = L0 * inv_EA
-        F_xx = base + np.where(same, F_xx_same, F_xx_opp)
-        F_zz = base + np.where(same, F_zz_same, F_zz_opp)
-        F_xz = np.where(H == 0.0, 0.0, F_xz)
-    return x, z, F_xx, F_xz, F_zz, x_c
+        F_xz = -HL * S / (TT * TS)
+        # T_A T_B - H^2 written without cancellation.
+        VA2, VB2 = V_A * V_A, V_B * V_B
+        prod_m_h2 = (H2 * (VA2 + VB2) + VA2 * VB2) / (TT + H2)
+        Lrho = L0 * rho
+        qm1 = q - 1.0
+        if small.size:
+            qm1[small] = qm1_s
+        F_xx = base + Lrho * (qm1 + prod_m_h2 / TT)
+        F_zz = base + H2 * Lrho / TT
+        if opp.size:
+            iw = 1.0 / wo
+            F_xx[opp] = base[opp] + (_g(vb / h) + _g(-va / h)) * iw
+            F_zz[opp] = base[opp] + (vb / T_B[opp] - va / T_A[opp]) * iw
+        if bad.size:
+            hz = bad[H[bad] == 0.0]
+            F_xz[hz] = 0.0
+    return _shaped(shape, x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B)
 
 
 def spans(
@@ -230,7 +289,7 @@ def flexibility(
         ``[[dx/dH, dx/dV_B], [dz/dH, dz/dV_B]]``.
     """
     H, V_B, L0, w, EA = _as_float(H, V_B, L0, w, EA)
-    _, _, fxx, fxz, fzz, _ = _evaluate(H, V_B, L0, w, _inv(EA))
+    _, _, fxx, fxz, fzz, *_ = _evaluate(H, V_B, L0, w, _inv(EA))
     fxx, fxz, fzz = np.broadcast_arrays(fxx, fxz, fzz)
     return np.stack([np.stack([fxx, fxz], -1), np.stack([fxz, fzz], -1)], -2)
 
@@ -329,7 +388,7 @@ def stretched_length(
         T_B = np.hypot(H, V_B)
         S = V_A + V_B
         TS = T_A + T_B
-        _, _, _, _, _, x_c = _evaluate(H, V_B, L0, w, inv_EA, jacobian=False)
+        x_c = _evaluate(H, V_B, L0, w, inv_EA, jacobian=False)[5]
         integral = 0.25 * L0 * (np.where(TS > 0, S * S / TS, 0.0) + TS) + 0.5 * H * x_c
         return L0 + np.where(inv_EA == 0.0, 0.0, integral * inv_EA)
 

@@ -47,6 +47,8 @@ _EPS = np.finfo(np.float64).eps
 # Residual (relative to the lengths or the tension) above which a small Newton
 # step is not trusted as convergence.
 _RES_TOL = 1e-8
+# Relative error of the prescribed tension above which a root is rejected.
+_T_TOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -267,7 +269,7 @@ def _newton_forces(
         if idx.size == 0:
             break
         h, v, l0, ww, ie = H[idx], V[idx], L0[idx], w[idx], inv_EA[idx]
-        xs, zs, fxx, fxz, fzz, _ = _evaluate(h, v, l0, ww, ie)
+        xs, zs, fxx, fxz, fzz, *_ = _evaluate(h, v, l0, ww, ie)
         rx, rz = xs - x[idx], zs - z[idx]
         with np.errstate(all="ignore"):
             det = fxx * fzz - fxz * fxz
@@ -328,7 +330,7 @@ def _nested_forces(
             M = np.where(grow, 4.0 * M, M)
 
         def fz(m: FloatArray, j: NDArray[np.intp]) -> tuple[FloatArray, FloatArray]:
-            _, zz, _, _, fzz, _ = _evaluate(h[j], m + 0.5 * ws[j] * ls[j], ls[j], ws[j], ie[j])
+            _, zz, _, _, fzz, *_ = _evaluate(h[j], m + 0.5 * ws[j] * ls[j], ls[j], ws[j], ie[j])
             return zz - zs[j], fzz
 
         m, _, it = _bracketed_newton(fz, -M, M, m0)
@@ -344,7 +346,7 @@ def _nested_forces(
         h = np.exp(t)
         V, it = inner(h, sel)
         its[sel] += it
-        xs, _, fxx, fxz, fzz, _ = _evaluate(h, V, L0[sel], w[sel], inv_EA[sel])
+        xs, _, fxx, fxz, fzz, *_ = _evaluate(h, V, L0[sel], w[sel], inv_EA[sel])
         with np.errstate(all="ignore"):
             dxdh = (fxx * fzz - fxz * fxz) / fzz
         return xs - x[sel], dxdh * h
@@ -524,56 +526,47 @@ def _end_tension(end: str, H: FloatArray, V: FloatArray, L0: FloatArray, w: Floa
 def _initial_length(
     end: str, x: FloatArray, z: FloatArray, T: FloatArray, w: FloatArray, inv_EA: FloatArray
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Near-straight cable guess with first-order sag: (H, V_B, L0), x > 0.
+    """Near-straight cable guess with first-order sag, x > 0.
 
-    Shallow-cable (parabola) estimates: the mean vertical force is ``H z/x``,
-    so ``V_B = H z/x + w L0/2`` and ``V_A = H z/x - w L0/2``; with the end
-    tension prescribed this is a quadratic in H (larger root: taut branch).
-    The stretched length exceeds the chord by ``q^2 c^3 / (24 T^2)`` with
-    ``q = w cos(theta)`` the transverse load and ``T = H / cos(theta)`` the
-    mean tension. Errors are ``O((w c / T)^2)``.
+    Returns ``(p, q, L0)``: for ``end="B"`` (``"A"``) the unit direction
+    ``(cos(phi), sin(phi))`` of the cable at that end, so that
+    ``(H, V) = T (p, q)``; for ``end="H"``, ``p = H = T`` and ``q = V_B``.
+
+    Shallow-cable (parabola) estimates in the chord frame: the end tangent
+    leaves the chord by ``atan(w c cos(theta) / (2 T_m))`` (above it at B,
+    below it at A), with ``T_m`` the tension at mid-height, and the stretched
+    length exceeds the chord by ``q^2 c^3 / (24 T_m^2)`` with ``q = w
+    cos(theta)`` the transverse load. Errors are ``O((w c / T)^2)``; the
+    direction is built by rotating the chord's unit vector, so the tiny
+    deviation of a light cable keeps full precision.
     """
     c = np.hypot(x, z)
     cos_t = x / c
-    t = z / x
+    sin_t = z / c
     with np.errstate(all="ignore"):
-        # First pass with L0 ~ c, second with the corrected length.
-        L0 = c
-        for _ in range(2):
-            if end == "H":
-                H = T
-            else:
-                half = 0.5 * w * L0
-                b = t * half if end == "B" else -t * half
-                a = 1.0 + t * t
-                cc = half * half - T * T
-                disc = np.sqrt(np.maximum(b * b - a * cc, 0.0))
-                # Larger root of a H^2 + 2 b H + cc = 0, without cancellation.
-                H = np.where(b > 0, -cc / (b + disc), (disc - b) / a)
-                H = np.where(np.isfinite(H) & (H > 0), H, T * cos_t)
-                H = np.minimum(H, T)
-            Tm = H / cos_t
+        if end == "H":
+            # The mean vertical force is H z/x (parabola): V_B = H z/x + w L0/2.
+            Tm = T / cos_t
             q = w * cos_t
             Ls = c + q * q * c**3 / (24.0 * Tm * Tm)
             Ls = np.minimum(Ls, 3.0 * c + 2.0 * T / np.where(w > 0, w, 1.0))
             L0 = Ls / (1.0 + Tm * inv_EA)
-        V = H * t + 0.5 * w * L0
-        if end != "H":
-            # Prescribed end tension: end tangent deviating from the chord by
-            # atan(q c / (2 T)) (parabola in the chord frame); more reliable
-            # than the quadratic above for steep cables.
-            theta = np.arctan2(z, x)
-            Tm = np.maximum(T - 0.5 * w * z if end == "B" else T + 0.5 * w * z, 0.5 * T)
-            delta = np.arctan(0.5 * w * cos_t * c / Tm)
-            Ls = c + (w * cos_t) ** 2 * c**3 / (24.0 * Tm * Tm)
-            L0 = Ls / (1.0 + Tm * inv_EA)
-            if end == "B":
-                phi = np.minimum(theta + delta, 0.5 * np.pi)
-                H, V = T * np.cos(phi), T * np.sin(phi)
-            else:
-                phi = np.maximum(theta - delta, -0.5 * np.pi)
-                H, V = T * np.cos(phi), T * np.sin(phi) + w * L0
-    return H, V, L0
+            return T, T * (z / x) + 0.5 * w * L0, L0
+        Tm = np.maximum(T - 0.5 * w * z if end == "B" else T + 0.5 * w * z, 0.5 * T)
+        t = 0.5 * w * x / Tm  # tan of the deviation from the chord
+        Ls = c + (t * t) * (c / 6.0)  # = c + (w cos c)^2 c^3 / (24 Tm^2)
+        L0 = Ls / (1.0 + Tm * inv_EA)
+        if end == "A":
+            t = -t
+        r = 1.0 / np.sqrt(1.0 + t * t)
+        p = (cos_t - t * sin_t) * r
+        q = (sin_t + t * cos_t) * r
+        # Beyond vertical: start from a steep but non-vertical direction.
+        steep = p < 0.01
+        if np.any(steep):
+            p = np.where(steep, 0.01, p)
+            q = np.where(steep, np.copysign(np.sqrt(1.0 - 1e-4), q), q)
+    return p, q, L0
 
 
 def _newton_length(
@@ -583,75 +576,190 @@ def _newton_length(
     T: FloatArray,
     w: FloatArray,
     inv_EA: FloatArray,
-    H: FloatArray,
-    V: FloatArray,
+    P: FloatArray,
+    Q: FloatArray,
     L: FloatArray,
     rtol: float,
     max_iter: int,
 ) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.bool_], NDArray[np.int64]]:
-    """3-D Newton on (H, V_B, L0): the two span equations and the tension.
+    """2-D Newton on the span equations with the tension condition built in.
 
-    Also returns per cable whether the root is on the taut branch
-    (``dT/dL0 < 0`` at fixed geometry); other roots count as not converged.
+    For ``end="B"`` (``"A"``) the unknowns are the direction angle ``phi`` of
+    the cable at that end and ``L0``, with ``(H, V_end) = T (cos(phi),
+    sin(phi))``; for ``end="H"`` they are ``V_B`` and ``L0`` with ``H = T``.
+    The tension condition thus holds exactly at every iterate (to rounding),
+    and the Jacobian stays regular for weightless and very light cables,
+    whose length carries no information about their tension (a Newton
+    iteration that solves for the tension through ``L0`` stalls there).
+    The direction is stored as a unit vector ``(P, Q)`` and rotated by
+    ``atan(dphi)`` per step (no trigonometric functions; quadratic
+    convergence is kept).
+
+    Returns ``(H, V_B, L0, converged, iterations)``. ``converged`` requires a
+    small step, span residuals below ``_RES_TOL`` and the taut branch: at a
+    root ``dT/dL0`` at fixed geometry has the sign of ``det J`` (``J`` the
+    Jacobian in (phi or V_B, L0)), so ``det J < 0`` there.
     """
-    H, V, L = H.copy(), V.copy(), L.copy()
-    n = H.size
+    P, Q, L = np.array(P, dtype=np.float64), Q.copy(), L.copy()
+    P = np.broadcast_to(P, L.shape).copy()
+    n = L.size
     conv = np.zeros(n, bool)
     its = np.zeros(n, np.int64)
     idx = np.arange(n)
-    for _ in range(max_iter):
+    xa, za, Ta, wa, ia = x, z, T, w, inv_EA
+    for k in range(max_iter):
         if idx.size == 0:
             break
-        h, v, l0, ww, ie, tt = H[idx], V[idx], L[idx], w[idx], inv_EA[idx], T[idx]
-        xs, zs, fxx, fxz, fzz, _ = _evaluate(h, v, l0, ww, ie)
+        if k:
+            xa, za, Ta, wa, ia = x[idx], z[idx], T[idx], w[idx], inv_EA[idx]
+            p, q, l0 = P[idx], Q[idx], L[idx]
+        else:
+            p, q, l0 = P, Q, L
+        if end == "H":
+            h, v = Ta, q
+        elif end == "B":
+            h, v = Ta * p, Ta * q
+        else:
+            h, va_ = Ta * p, Ta * q
+            v = va_ + wa * l0
+        xs, zs, fxx, fxz, fzz, _, ta, tb = _evaluate(h, v, l0, wa, ia)
         with np.errstate(all="ignore"):
-            va = v - ww * l0
-            ta = np.hypot(h, va)
-            kk = 1.0 / ta + ie
-            xl, zl = h * kk, va * kk
-            rx, rz = xs - x[idx], zs - z[idx]
-            if end == "B":
-                tb = np.hypot(h, v)
-                r3 = tb - tt
-                ch, cv, cl = h / tb, v / tb, 0.0
-            elif end == "A":
-                r3 = ta - tt
-                ch, cv, cl = h / ta, va / ta, -ww * va / ta
+            rx, rz = xs - xa, zs - za
+            if end == "H":
+                xp, zp = fxz, fzz
+                kk = 1.0 / ta + ia
+                xl, zl = h * kk, (v - wa * l0) * kk
+            elif end == "B":
+                xp, zp = h * fxz - v * fxx, h * fzz - v * fxz
+                kk = 1.0 / ta + ia
+                xl, zl = h * kk, (v - wa * l0) * kk
             else:
-                r3 = h - tt
-                ch, cv, cl = 1.0, 0.0, 0.0
-            det = fxx * fzz - fxz * fxz
-            # p = F^-1 r, q = F^-1 (dx/dL0, dz/dL0)
-            px = (fzz * rx - fxz * rz) / det
-            pz = (fxx * rz - fxz * rx) / det
-            qx = (fzz * xl - fxz * zl) / det
-            qz = (fxx * zl - fxz * xl) / det
-            D = ch * qx + cv * qz - cl  # = -dT/dL0 at fixed x, z
-            dl = (r3 - ch * px - cv * pz) / D
-            dh = -px - qx * dl
-            dv = -pz - qz * dl
+                xp, zp = h * fxz - va_ * fxx, h * fzz - va_ * fxz
+                # At fixed (H, V_A) the cable grows at end B, along its tangent.
+                kk = 1.0 / tb + ia
+                xl, zl = h * kk, v * kk
+            det = xp * zl - xl * zp
+            dp = (xl * rz - zl * rx) / det
+            dl = (zp * rx - xp * rz) / det
         its[idx] += 1
-        hn = np.clip(h + dh, 0.1 * h, 10.0 * h)
         ln = np.clip(l0 + dl, 0.5 * l0, 2.0 * l0)
-        fscale = np.hypot(h, v) + ww * l0
-        vn = v + np.clip(dv, -10 * fscale, 10 * fscale)
-        ok = np.isfinite(hn) & np.isfinite(vn) & np.isfinite(ln)
-        small = (np.abs(dh) <= rtol * h) & (np.abs(dv) <= rtol * fscale) & (np.abs(dl) <= rtol * l0)
-        H[idx] = np.where(ok, hn, h)
-        V[idx] = np.where(ok, vn, v)
+        if end == "H":
+            fscale = ta + tb
+            pn = q + np.clip(dp, -10 * fscale, 10 * fscale)
+            qn = pn
+            small_p = np.abs(dp) <= rtol * fscale
+            ok = np.isfinite(pn) & np.isfinite(ln)
+        else:
+            # Keep H > 0: cos(phi) may shrink at most tenfold per step.
+            with np.errstate(all="ignore"):
+                dp = np.where(dp * q > 0.9 * p, 0.9 * p / q, dp)
+                r = 1.0 / np.sqrt(1.0 + dp * dp)
+                pn = (p - dp * q) * r
+                qn = (q + dp * p) * r
+            small_p = np.abs(dp) <= rtol
+            ok = np.isfinite(pn) & np.isfinite(qn) & np.isfinite(ln)
+        small = small_p & (np.abs(dl) <= rtol * l0)
+        fit = (np.abs(rx) <= _RES_TOL * (xa + l0)) & (np.abs(rz) <= _RES_TOL * (np.abs(za) + l0))
+        if end == "H":
+            Q[idx] = np.where(ok, qn, q)
+        else:
+            P[idx] = np.where(ok, pn, p)
+            Q[idx] = np.where(ok, qn, q)
         L[idx] = np.where(ok, ln, l0)
         # A small step with a large residual means a (near-)singular Jacobian.
-        fin = ok & small
-        fit = (
-            (np.abs(rx) <= _RES_TOL * (x[idx] + l0))
-            & (np.abs(rz) <= _RES_TOL * (np.abs(z[idx]) + l0))
-            & (np.abs(r3) <= _RES_TOL * tt)
-        )
-        fin &= fit
+        fin = ok & small & fit
         # A root with dT/dL0 >= 0 is the sagging branch: reject it.
-        conv[idx] = fin & (D > 0)
+        conv[idx] = fin & (det < 0)
         idx = idx[~fin & ok]
+    if end == "H":
+        H, V = np.broadcast_to(T, L.shape).copy(), Q
+    elif end == "B":
+        H, V = T * P, T * Q
+    else:
+        H, V = T * P, T * Q + w * L
     return H, V, L, conv, its
+
+
+def _catenary_guess_h(
+    x: FloatArray,
+    z: FloatArray,
+    H: FloatArray,
+    w: FloatArray,
+    inv_EA: FloatArray,
+    V: FloatArray,
+    L: FloatArray,
+) -> tuple[FloatArray, FloatArray]:
+    """Guess ``(V_B, L0)`` for a prescribed horizontal tension, ``x > 0``, ``w > 0``.
+
+    In the hyperbolic end angles ``a = asinh(V_A/H)``, ``b = asinh(V_B/H)``
+    the inextensible catenary is explicit: ``b - a = w x_c / H``,
+    ``z_c = (2H/w) sinh((a+b)/2) sinh((b-a)/2)`` and
+    ``L0 = (2H/w) cosh((a+b)/2) sinh((b-a)/2)``, where ``x_c, z_c`` are the
+    spans without stretch. A few fixed-point passes, starting from the
+    guess ``(V, L)`` (N, m), subtract the stretch. This is exact for
+    inextensible cables and good for steep ones with moderate stretch, where
+    the parabolic guess of :func:`_initial_length` is poor.
+    """
+    with np.errstate(all="ignore"):
+        for _ in range(4):
+            xc = np.maximum(x - H * L * inv_EA, 0.5 * x)
+            zc = z - (V * L - 0.5 * w * L * L) * inv_EA
+            d = w * xc / H
+            sh = np.sinh(0.5 * d)
+            m = np.arcsinh(w * zc / (2.0 * H * sh))
+            L = 2.0 * H / w * np.cosh(m) * sh
+            V = H * np.sinh(m + 0.5 * d)
+    return V, L
+
+
+def _polish_length(
+    end: str,
+    x: FloatArray,
+    z: FloatArray,
+    T: FloatArray,
+    w: FloatArray,
+    inv_EA: FloatArray,
+    H: FloatArray,
+    V: FloatArray,
+    L: FloatArray,
+    status: NDArray[np.str_],
+    rtol: float,
+    max_iter: int,
+) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.str_], NDArray[np.int64]]:
+    """Finish the bracketing fallback's roots and check the tension condition.
+
+    Newton with the tension built in (:func:`_newton_length`) is restarted
+    from each root; its answer is taken where it converges to the same
+    cable (``L0`` within ``1e-6``). Any root whose end tension is still off
+    by more than ``_T_TOL`` relative is reported ``"not_converged"``, never
+    as a solution.
+    """
+    its = np.zeros(x.size, np.int64)
+    H, V, L, status = H.copy(), V.copy(), L.copy(), status.copy()
+    i = np.flatnonzero(status == CONVERGED)
+    if i.size:
+        Ti = T[i]
+        with np.errstate(all="ignore"):
+            if end == "H":
+                P, Q = Ti, V[i]
+            else:
+                Ve = V[i] if end == "B" else V[i] - w[i] * L[i]
+                Te = np.hypot(H[i], Ve)
+                P, Q = H[i] / Te, Ve / Te
+        Hp, Vp, Lp, cp, itp = _newton_length(
+            end, x[i], z[i], Ti, w[i], inv_EA[i], P, Q, L[i], rtol, max_iter
+        )
+        its[i] = itp
+        same = cp & (np.abs(Lp - L[i]) <= 1e-6 * L[i])
+        H[i] = np.where(same, Hp, H[i])
+        V[i] = np.where(same, Vp, V[i])
+        L[i] = np.where(same, Lp, L[i])
+        with np.errstate(all="ignore"):
+            off = ~(np.abs(_end_tension(end, H[i], V[i], L[i], w[i]) - Ti) <= _T_TOL * Ti)
+        status[i[off]] = NOT_CONVERGED
+    nan = status != CONVERGED
+    H[nan], V[nan], L[nan] = np.nan, np.nan, np.nan
+    return H, V, L, status, its
 
 
 def _fallback_length(
@@ -861,16 +969,40 @@ def solve_length(
     gi = np.flatnonzero(~vert & ~zero)
     if gi.size:
         xg, zg, tg, wg, ig = xf[gi], zf[gi], tf[gi], wf[gi], inv_EA[gi]
-        H0, V0, L0 = _initial_length(end, xg, zg, tg, wg, ig)
-        Hn, Vn, Ln, conv, itn = _newton_length(end, xg, zg, tg, wg, ig, H0, V0, L0, rtol, max_iter)
+        P0, Q0, L0 = _initial_length(end, xg, zg, tg, wg, ig)
+        if end == "H":
+            # Steep cables: the parabola is a poor guess, the catenary in end
+            # angles a good one (exact if inextensible); each is the other's
+            # second chance.
+            Qc, Lc = Q0.copy(), L0.copy()
+            cat_ok = np.flatnonzero(wg > 0)
+            Qc[cat_ok], Lc[cat_ok] = _catenary_guess_h(
+                xg[cat_ok], zg[cat_ok], tg[cat_ok], wg[cat_ok], ig[cat_ok], Q0[cat_ok], L0[cat_ok]
+            )
+            stretch = np.hypot(tg, Q0) * ig
+            s = np.flatnonzero((np.abs(zg) > 3.0 * xg) & (wg > 0) & (stretch < 0.2))
+            Q0[s], Qc[s] = Qc[s], Q0[s]
+            L0[s], Lc[s] = Lc[s], L0[s]
+        Hn, Vn, Ln, conv, itn = _newton_length(end, xg, zg, tg, wg, ig, P0, Q0, L0, rtol, max_iter)
+        if end == "H" and not np.all(conv):
+            f = np.flatnonzero(~conv & (wg > 0))
+            Hr, Vr, Lr, convr, itr = _newton_length(
+                end, xg[f], zg[f], tg[f], wg[f], ig[f], tg[f], Qc[f], Lc[f], rtol, max_iter
+            )
+            Hn[f], Vn[f], Ln[f], conv[f] = Hr, Vr, Lr, convr
+            itn[f] += itr
         st = np.where(conv, CONVERGED, NOT_CONVERGED).astype(_STATUS_DTYPE)
         if not np.all(conv):
             f = np.flatnonzero(~conv)
             Hf, Vf, Lf, stf, itf = _fallback_length(
                 end, xg[f], zg[f], tg[f], wg[f], ef[gi][f], Ln[f]
             )
-            Hn[f], Vn[f], Ln[f], st[f] = Hf, Vf, Lf, stf
             itn[f] += itf
+            Hf, Vf, Lf, stf, itp = _polish_length(
+                end, xg[f], zg[f], tg[f], wg[f], ig[f], Hf, Vf, Lf, stf, rtol, max_iter
+            )
+            Hn[f], Vn[f], Ln[f], st[f] = Hf, Vf, Lf, stf
+            itn[f] += itp
         H[gi], V[gi], L[gi], its[gi], status[gi] = Hn, Vn, Ln, itn, st
     converged = status == CONVERGED
     return LengthResult(

@@ -274,3 +274,109 @@ def test_random_forward_problems_solve_to_tiny_residual(x, z, slack, w, EA) -> N
     xs, zs = cat.spans(r.H, r.V_B, L0, w, EA)
     assert abs(xs - x) <= 1e-11 * (L0 + c)
     assert abs(zs - z) <= 1e-11 * (L0 + c)
+
+
+# ----------------------------------------------------------------------------
+# very light cables and the "converged means solved" contract
+
+LIGHT_W = (0.0, 1e-12, 1e-11, 1e-10, 1e-9, 1e-8, 1e-7, 1e-6)
+
+
+def _end_tension(r: cat.LengthResult, end: str) -> np.ndarray:
+    return {"B": r.T_B, "A": r.T_A, "H": r.H}[end]
+
+
+@pytest.mark.parametrize("end", ["B", "A", "H"])
+@pytest.mark.parametrize("w", LIGHT_W)
+def test_light_cable_keeps_tension_and_tends_to_straight_bar(end: str, w: float) -> None:
+    # Cables whose sag is far below the rounding of their length: L0 carries
+    # no information on the tension, which must still be met exactly.
+    g = np.array(
+        np.meshgrid(
+            [50.0, 0.3, 1000.0],
+            [5.0, -30.0, 0.0, 400.0],
+            [5000.0, 1e5],
+            [np.inf, 1e6, 1e9],
+            indexing="ij",
+        )
+    ).reshape(4, -1)
+    x, z, T, EA = g
+    r = cat.solve_length(x, z, T, w, EA, end=end)
+    assert np.all(r.converged), np.unique(r.status, return_counts=True)
+    np.testing.assert_allclose(_end_tension(r, end), T, rtol=1e-9, atol=0)
+    np.testing.assert_array_equal(r.V_A, r.V_B - w * r.L0)
+    # Straight elastic bar: the tension at mid-length differs from the end
+    # tension by half the weight component along the bar, w (L0/2) sin(theta).
+    c = np.hypot(x, z)
+    L_bar = c
+    for _ in range(3):
+        half = 0.5 * w * z * L_bar / c
+        mid = {"B": T - half, "A": T + half, "H": T * c / x}[end]
+        L_bar = c / (1.0 + mid / EA)
+    np.testing.assert_allclose(r.L0, L_bar, rtol=1e-12, atol=0)
+    # The cable leaves the chord by half its transverse weight over T:
+    # w L0 cos(theta) / (2 T) (parabola).
+    if end != "H":
+        phi = np.arctan2(r.V_B if end == "B" else r.V_A, r.H)
+        dev = (phi - np.arctan2(z, x)) * (1 if end == "B" else -1)
+        np.testing.assert_allclose(dev, w * r.L0 * x / (2 * T * c), rtol=1e-3, atol=1e-13)
+
+
+def test_light_cable_reported_case() -> None:
+    # x = 50, z = 5, T = 5000, w = 1e-8 returned H = 7.6 as "converged".
+    for end in ("A", "B"):
+        r = cat.solve_length(50.0, 5.0, 5000.0, 1e-8, end=end)
+        assert r.converged
+        assert r.H == pytest.approx(5000 * 50 / np.hypot(50, 5), rel=1e-9)
+        assert _end_tension(r, end) == pytest.approx(5000.0, rel=1e-12)
+        assert r.L0 == pytest.approx(np.hypot(50, 5), rel=1e-15)
+
+
+def test_weightless_inextensible_cable_is_the_chord() -> None:
+    # w = 0, EA = inf: L0 is the chord and the tension acts along it.
+    for end in ("B", "A", "H"):
+        r = cat.solve_length(3.0, 4.0, 100.0, 0.0, end=end)
+        assert r.converged and r.L0 == pytest.approx(5.0, rel=1e-15)
+        T = 100.0 if end != "H" else 100.0 * 5 / 3
+        assert r.H == pytest.approx(T * 0.6, rel=1e-14)
+        assert r.V_B == pytest.approx(T * 0.8, rel=1e-14) and r.V_A == r.V_B
+
+
+def test_steep_cables_given_horizontal_tension_converge_quickly() -> None:
+    # Nearly vertical (89.9 deg) cables with prescribed H: Newton from the
+    # catenary in end angles, no bracketing fallback.
+    ang = np.radians(89.9)
+    c = np.array([0.1, 10.0, 1000.0])[:, None, None]
+    w = np.array([1e-6, 1e-3, 1.0, 1e3])[None, :, None]
+    EA = np.array([1e3, 1e6, np.inf])[None, None, :]
+    x, z = c * np.cos(ang), c * np.sin(ang)
+    f = cat.solve_forces(x, z, 1.01 * c, w, EA)
+    assert np.all(f.converged)
+    r = cat.solve_length(x, z, f.H, w, EA, end="H")
+    assert np.all(r.converged)
+    assert r.iterations.max() <= 8
+    np.testing.assert_allclose(r.L0, np.broadcast_to(1.01 * c, r.L0.shape), rtol=1e-10)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    x=st.floats(1e-3, 1000.0, **finite),
+    z=st.floats(-1000.0, 1000.0, **finite),
+    T=st.floats(-3.0, 7.0, **finite).map(lambda e: 10.0**e),
+    w=st.one_of(st.just(0.0), st.floats(-14.0, 3.0, **finite).map(lambda e: 10.0**e)),
+    EA=st.sampled_from([1e3, 1e6, 1e10, 1e20, np.inf]),
+    end=st.sampled_from(["B", "A", "H"]),
+)
+def test_converged_inverse_solves_span_and_tension_equations(x, z, T, w, EA, end) -> None:
+    # The contract: a converged flag implies the span equations AND the
+    # tension condition hold; anything else is reported with NaN values.
+    r = cat.solve_length(x, z, T, w, EA, end=end)
+    if not r.converged:
+        assert r.status in ("infeasible", "indeterminate", "not_converged")
+        assert np.isnan(r.L0)
+        return
+    assert r.status == "converged" and r.L0 > 0 and r.H >= 0
+    assert abs(_end_tension(r, end) - T) <= 1e-9 * T
+    xs, zs = cat.spans(r.H, r.V_B, r.L0, w, EA)
+    assert abs(xs - x) <= 1e-9 * (x + r.L0)
+    assert abs(zs - z) <= 1e-9 * (abs(z) + r.L0)
