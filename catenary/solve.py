@@ -1,8 +1,9 @@
 """Forward and inverse solvers of the elastic catenary, vectorised over cables.
 
 * :func:`solve_forces` -- unstretched length -> end forces (2 unknowns H, V_B).
-* :func:`solve_length` -- an end tension -> unstretched length (3 unknowns
-  H, V_B, L0 with the tension condition as third equation).
+* :func:`solve_length` -- an end tension -> unstretched length (unknowns
+  H, V_B, L0; the tension condition is built into the parametrisation, so
+  Newton works on the two span equations only).
 
 Both run one Newton iteration on all unconverged cables at once (analytic
 Jacobian from :mod:`catenary.elastic`), starting from a closed-form guess that
@@ -937,16 +938,24 @@ def solve_length(
 
     Notes
     -----
-    Unknowns ``(H, V_B, L0)``; equations: the two span equations and the
-    tension condition. Newton starts from a straight cable along the chord
-    with first-order sag corrections (see ``_initial_length``); for taut
-    cables this guess is within ``O((w c / T)^2)`` of the answer, so two or
-    three steps reach full precision. At a root the sign of ``dT/dL0`` at
-    fixed geometry (a by-product of the Newton step) tells the taut branch
+    Unknowns ``(H, V_B, L0)``, parametrised so that the tension condition
+    holds exactly: the direction angle of the cable at the given end and
+    ``L0`` (``end="B"``/``"A"``), or ``V_B`` and ``L0`` with ``H = T``
+    (``end="H"``). Newton on the two span equations starts from a straight
+    cable along the chord with first-order sag corrections (see
+    ``_initial_length``; steep cables given ``H`` start from the catenary in
+    end angles); for taut cables this guess is within ``O((w c / T)^2)`` of
+    the answer, so two or three steps reach full precision. The Jacobian
+    stays regular for weightless and very light cables, whose sag is below
+    the rounding of ``L0``. At a root the sign of the Jacobian determinant is
+    that of ``dT/dL0`` at fixed geometry and tells the taut branch
     (negative) from the sagging one; cables that reach the sagging branch or
     do not converge are solved by a bracketing search in L0 built on
-    :func:`solve_forces`, which also detects infeasibility. Vertical cables
-    are solved in closed form.
+    :func:`solve_forces`, which also detects infeasibility, and polished by
+    the same Newton. A cable is reported converged only if its span
+    residuals are below ``1e-8`` of its size and its end tension is within
+    ``1e-9`` of the prescribed one. Vertical cables are solved in closed
+    form.
     """
     if end not in ("B", "A", "H"):
         raise InvalidCableError(f'end must be "B", "A" or "H"; got end={end!r}')
