@@ -561,33 +561,9 @@ def _catenary(
     x: FloatArray, z: FloatArray, T: FloatArray, w: float, EA: float, end: Literal["A", "B"]
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.int64],
            NDArray[np.bool_]]:
-    """Taut catenaries with tension ``T`` at ``end``: ``H, V_A, V_B, L0``, iterations, ok.
-
-    :func:`catenary.solve_length`, except for cables so light that their sag is below
-    the rounding of their length (``w c / T < 1e-7``, ``c`` the chord): there the
-    length no longer determines the shape in double precision, and the end tangent is
-    taken from the first-order (parabolic) sag instead, exact to ``O((w c / T)^2)``:
-    it leaves the chord by ``w c cos(theta) / (2 T)``, below it at A, above it at B.
-    """
+    """Taut catenaries with tension ``T`` at ``end``: ``H, V_A, V_B, L0``, iterations, ok."""
     res = solve_length(x, z, T, w, EA, end=end)
-    H, V_A, V_B, L0 = res.H.copy(), res.V_A.copy(), res.V_B.copy(), res.L0.copy()
-    ok = res.converged.copy()
-    c = np.hypot(x, z)
-    with np.errstate(all="ignore"):
-        light = (w * c < 1e-7 * T) & (c > 0) & (T > 0)
-        if light.any():
-            theta = np.arctan2(z, x)
-            delta = w * x / (2.0 * T)  # = w c cos(theta) / (2 T)
-            phi = theta - delta if end == "A" else theta + delta
-            L0l = c / (1.0 + T / EA)
-            Hl, Vl = T * np.cos(phi), T * np.sin(phi)
-            V_Al = Vl if end == "A" else Vl - w * L0l
-            H = np.where(light, Hl, H)
-            V_A = np.where(light, V_Al, V_A)
-            V_B = np.where(light, V_Al + w * L0l, V_B)
-            L0 = np.where(light, L0l, L0)
-            ok = ok | light
-    return H, V_A, V_B, L0, res.iterations, ok
+    return res.H, res.V_A, res.V_B, res.L0, res.iterations, res.converged
 
 
 def _force_slope(
