@@ -495,7 +495,7 @@ def _scp(
         form.c = form.c - curv * Ta
         raw = solver.solve(form, **options)
         iterations[active] += 1
-        solved = np.array([s is Status.OPTIMAL or s is Status.INACCURATE for s in raw.status])
+        solved = (raw.status == Status.OPTIMAL) | (raw.status == Status.INACCURATE)
         if not solved.all():
             # A linearisation far from the solution (low tensions, deep sag) may have no
             # feasible point although the pose has one: restart those poses from doubled

@@ -150,7 +150,7 @@ def finish(raw: RawResult, problem: TensionProblem, backend: Backend, A: NDArray
     """Turn a backend's raw result into a :class:`TensionSolution` with its diagnostics."""
     T = np.asarray(raw.tensions, dtype=float)
     status = np.asarray(raw.status, dtype=object)
-    solved = np.array([s is Status.OPTIMAL or s is Status.INACCURATE for s in status])
+    solved = (status == Status.OPTIMAL) | (status == Status.INACCURATE)
     T[~solved] = np.nan
     residual = np.linalg.norm(np.einsum("nij,nj->ni", A, T) - b, axis=1)
     violation = np.maximum(np.nanmax(np.maximum(lb - T, T - ub), axis=1, initial=0.0), 0.0)

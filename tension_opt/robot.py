@@ -277,7 +277,10 @@ class CableRobot:
 
     def _cables(self, p: NDArray) -> tuple[NDArray, NDArray, NDArray]:
         position, R = self.frames(p)
-        arm = np.einsum("nij,mj->nmi", R, self.attachments)  # R a_i, (N, m, 3)
+        if self.kind in ("point3", "planar_point2"):  # no rotation: arms are the attachments
+            arm = np.broadcast_to(self.attachments, (len(p), *self.attachments.shape))
+        else:
+            arm = np.einsum("nij,mj->nmi", R, self.attachments)  # R a_i, (N, m, 3)
         vec = self.anchors[None] - (position[:, None, :] + arm)
         lengths = np.sqrt(np.einsum("nmi,nmi->nm", vec, vec))
         scale = np.maximum(1.0, np.abs(self.anchors).max())

@@ -85,7 +85,7 @@ class TensionSolution:
     @property
     def success(self) -> NDArray:
         """Boolean mask of poses solved to optimality, shape (N,)."""
-        return np.array([s is Status.OPTIMAL for s in self.status], dtype=bool)
+        return np.asarray(self.status == Status.OPTIMAL, dtype=bool)
 
     @property
     def time_per_pose(self) -> float:

@@ -69,7 +69,7 @@ class Backend:
         if not form.is_linear or (problem is not None and not problem.tie_break):
             first.unique = np.ones(form.N, dtype=bool)
             return first
-        ok = np.array([s is Status.OPTIMAL for s in first.status])
+        ok = first.status == Status.OPTIMAL
         unique = np.ones(form.N, dtype=bool)
         idx = np.flatnonzero(ok)
         if len(idx):
@@ -91,7 +91,7 @@ class Backend:
             second = self.solve_stage(face, **options)
             first.solve_time += time.perf_counter() - t0 - second.setup_time
             first.setup_time += second.setup_time
-            good = np.array([s is Status.OPTIMAL for s in second.status])
+            good = second.status == Status.OPTIMAL
             first.tensions[tied[good]] = second.tensions[good]
             first.status[tied[~good]] = Status.INACCURATE
             if first.iterations is not None and second.iterations is not None:

@@ -21,6 +21,9 @@ from tension_opt.backends.base import Backend, RawResult, register
 from tension_opt.problems import StandardForm
 from tension_opt.solution import Status, status_array
 
+#: Poses per block of the four-cable path (about 20 arrays of this length are live).
+_BLOCK = 8192
+
 
 def _det3(a: NDArray, b: NDArray, c: NDArray) -> NDArray:
     """Determinant of the 3 x 3 matrices with columns a, b, c (each (N, 3))."""
@@ -86,7 +89,10 @@ class ClosedFormBackend(Backend):
     def solve(self, form: StandardForm, **options: Any) -> RawResult:
         t0 = time.perf_counter()
         if (form.n, form.m) == (3, 4) and form.kind in ("lp", "qp"):
-            T, status, unique, infeas = self._solve_point4(form)
+            # Blocks whose temporaries stay in cache: large batches are memory bound.
+            parts = [self._solve_point4(form.subset(slice(i, i + _BLOCK)))
+                     for i in range(0, form.N, _BLOCK)]
+            T, status, unique, infeas = (np.concatenate(p) for p in zip(*parts, strict=True))
         else:
             T, status, unique, infeas = self._solve_general(form)
         elapsed = time.perf_counter() - t0
