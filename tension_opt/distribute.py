@@ -120,6 +120,8 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
     unique = np.ones(N, dtype=bool)
     lbs, ubs, prevs = np.empty((N, m)), np.empty((N, m)), np.full((N, m), np.nan)
     setup = solve = 0.0
+    # Every pose after the first is the smoothed problem: the backend must take that one.
+    _check_supported(backend, problem.standard_form_from(robot, A[:1], b[:1], np.zeros(m)))
     last = previous
     for k in range(N):
         if last is None or not np.isfinite(last).all():
@@ -127,8 +129,6 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
         else:
             form = problem.standard_form_from(robot, A[k:k + 1], b[k:k + 1], last)
             prevs[k] = last
-        if k == 0:
-            _check_supported(backend, form)
         raw = backend.solve(form, **options)
         tensions[k], status[k] = raw.tensions[0], raw.status[0]
         unique[k] = True if raw.unique is None else raw.unique[0]
