@@ -158,6 +158,13 @@ def _solve_path(family: str, solver: str, P: sp.csc_matrix, q: NDArray, Aeq: sp.
     if family == "cvxpy":
         import cvxpy as cp
 
+        from tension_opt.backends.cvxpy_backend import LP_ONLY
+
+        name = (solver or "CLARABEL").upper()
+        get_backend(f"cvxpy:{name}")  # raises a clear error if not installed
+        if name in LP_ONLY:
+            raise UnsupportedProblemError(f"cvxpy:{name} solves LPs only; a path QP needs a "
+                                          "QP solver such as cvxpy:CLARABEL")
         x = cp.Variable(len(q))
         constraints = [Aeq @ x == beq]
         fin_lb, fin_ub = np.isfinite(lb), np.isfinite(ub)
@@ -168,7 +175,7 @@ def _solve_path(family: str, solver: str, P: sp.csc_matrix, q: NDArray, Aeq: sp.
         prob = cp.Problem(cp.Minimize(0.5 * cp.quad_form(x, cp.psd_wrap(P)) + q @ x),
                           constraints)
         try:
-            prob.solve(solver=(solver or "CLARABEL").upper())
+            prob.solve(solver=name)
         except Exception:
             return None, Status.SOLVER_ERROR, None
         ok = prob.status == "optimal"

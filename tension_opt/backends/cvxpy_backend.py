@@ -41,7 +41,7 @@ HIGH_ACCURACY: dict[str, dict[str, Any]] = {
 #: Options always passed: ProxQP otherwise runs millions of iterations on an infeasible pose.
 ALWAYS: dict[str, dict[str, Any]] = {"PROXQP": {"max_iter": 200}}
 #: Solvers that take linear programs only.
-_LP_ONLY = {"SCIPY", "GLOP", "CBC", "GLPK"}
+LP_ONLY = {"SCIPY", "GLOP", "CBC", "GLPK"}
 #: QP solvers unsuited to LPs: PROXQP failed on a quarter of the study's min-sum poses.
 _NO_LP = {"PROXQP"}
 _STATUS = {
@@ -150,7 +150,7 @@ class CvxpyBackend(Backend):
         return f"cvxpy {cp.__version__}"
 
     def unsupported(self, form: StandardForm) -> str | None:
-        if self._solver in _LP_ONLY and not form.is_linear:
+        if self._solver in LP_ONLY and not form.is_linear:
             return f"{self.name} solves linear programs only"
         if self._solver in _NO_LP and not (form.q > 0).all():
             return f"{self.name} is a QP solver unsuited to LPs (zero Hessian); use a QP objective"
