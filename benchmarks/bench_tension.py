@@ -7,7 +7,7 @@ Prints, measured in one run:
   feasible poses: ns per pose for the solve alone (structure matrices given) and for
   the whole :func:`tension_opt.distribute` call;
 - ``qpsolvers:daqp`` through ``distribute``: us per pose, and the ratio to calling
-  DAQP directly on the same (scaled) matrices in a plain loop;
+  DAQP directly on the same (scaled) matrices in a plain loop that keeps each solution;
 - ``cvxpy`` re-solving one compiled problem with Parameters: us per pose, against
   building and solving a new cvxpy problem per pose.
 
@@ -62,11 +62,13 @@ def closed_form_rows(robot: to.CableRobot, poses: np.ndarray, repeat: int) -> li
     return rows
 
 
-def _daqp_loop(solve: Callable[..., object], H: list, c: list, A: list, upper: list,
-               lower: list, sense: np.ndarray) -> None:
-    """Call DAQP on each pose in a plain loop: the baseline of the ratio."""
+def _daqp_loop(solve: Callable[..., tuple], H: list, c: list, A: list, upper: list,
+               lower: list, sense: np.ndarray) -> np.ndarray:
+    """Call DAQP on each pose in a plain loop, keeping each solution: the baseline."""
+    x = np.empty((len(H), len(c[0])))
     for i in range(len(H)):
-        solve(H[i], c[i], A[i], upper[i], lower[i], sense)
+        x[i] = solve(H[i], c[i], A[i], upper[i], lower[i], sense)[0]
+    return x
 
 
 def daqp_rows(robot: to.CableRobot, poses: np.ndarray, repeat: int) -> list[tuple]:

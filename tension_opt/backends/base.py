@@ -104,7 +104,7 @@ class Backend:
         raise NotImplementedError
 
 
-def lp_optimum_is_unique(form: StandardForm, T: NDArray) -> NDArray:
+def lp_optimum_is_unique(form: StandardForm, T: NDArray, _square: bool = True) -> NDArray:
     """Whether LP optima ``T`` (N, m) are the only optima of their problems, shape (N,).
 
     The optimum is unique iff no direction ``d != 0`` keeps equilibrium, the objective
@@ -126,9 +126,18 @@ def lp_optimum_is_unique(form: StandardForm, T: NDArray) -> NDArray:
         E = np.concatenate([form.A, form.c[:, None, :]], axis=1)
     if form.G is not None:  # rows of G at equality behave as upper bounds on G d
         raise InvalidInputError("the uniqueness test does not take extra inequality rows")
+    unique = np.ones(N, dtype=bool)
+    if _square and E.shape[1] == m:
+        # Square: a determinant far from zero against the rows' lengths (Hadamard's
+        # bound) settles most poses without a singular value decomposition.
+        ratio = np.abs(np.linalg.det(E)) / np.prod(np.linalg.norm(E, axis=2), axis=1)
+        doubt = np.flatnonzero(~(ratio > 1e-8))
+        if not len(doubt):
+            return unique
+        unique[doubt] = lp_optimum_is_unique(form.subset(doubt), T[doubt], _square=False)
+        return unique
     s = np.linalg.svd(E, compute_uv=False)
     rank = (s > 1e-10 * s[:, :1]).sum(axis=1)
-    unique = np.ones(N, dtype=bool)
     for k in np.unique(rank):
         dim = m - int(k)
         if dim == 0:

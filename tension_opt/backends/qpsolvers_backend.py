@@ -174,25 +174,24 @@ class QpsolversBackend(Backend):
         setup += time.perf_counter() - t0
         t0 = time.perf_counter()
         solve = daqp.solve
-        H, c, upper, lower = list(H), list(batch.c), list(upper), list(lower)
-        results = []
-        if warm or settings:
-            x_prev = None
-            for i in range(N):
-                out = solve(H[i], c[i], rows[i], upper[i], lower[i], sense,
-                            primal_start=x_prev if warm else None, **settings)
-                results.append(out)
-                if out[2] > 0:
-                    x_prev = out[0]
-        else:  # the common case, kept free of keyword handling in the loop
-            results = [solve(H[i], c[i], rows[i], upper[i], lower[i], sense)
-                       for i in range(N)]
-        flags = np.array([out[2] for out in results])
-        iters = np.array([out[3]["iterations"] for out in results], dtype=int)
+        H, c, A, upper, lower = (list(H), list(batch.c), list(rows), list(upper),
+                                 list(lower))
+        flags = np.empty(N, dtype=int)
+        # Results go straight into arrays: holding DAQP's per-call outputs (arrays and
+        # dicts) until the end of the loop cost as much as the solves themselves.
+        x_prev = None
+        for i in range(N):
+            if warm or settings:
+                x, _, flag, info = solve(H[i], c[i], A[i], upper[i], lower[i], sense,
+                                         primal_start=x_prev if warm else None, **settings)
+            else:  # the common case, free of keyword handling
+                x, _, flag, info = solve(H[i], c[i], A[i], upper[i], lower[i], sense)
+            flags[i] = flag
+            iters[i] = info["iterations"]
+            if flag > 0:
+                x_all[i] = x
+                x_prev = x
         good = flags > 0
-        if good.any():
-            x_all[good] = np.array([out[0] for out, ok in zip(results, good, strict=True)
-                                    if ok])
         status[good] = Status.OPTIMAL
         for i in np.flatnonzero(~good):
             status[i] = _DAQP_EXIT.get(int(flags[i]), Status.SOLVER_ERROR)
