@@ -18,7 +18,7 @@ from tension_opt.solution import Status, TensionSolution
 FEASIBILITY_TOL = 1e-6
 
 # Preference of backend="auto": exact first, then the fastest iterative solvers.
-_AUTO_ORDER = ("closed_form", "qpsolvers:daqp", "qpsolvers:proxsuite", "qpsolvers:piqp",
+_AUTO_ORDER = ("closed_form", "qpsolvers:daqp", "qpsolvers:proxqp", "qpsolvers:piqp",
                "qpsolvers:highs", "scipy:highs", "cvxpy:CLARABEL", "cvxpy")
 
 
@@ -66,35 +66,33 @@ def distribute(
     A = robot.structure_matrices(p)
     b = robot.required_wrench(p, wrench)
     geometry_time = time.perf_counter() - t0
-    chosen = _resolve(backend, problem, robot, A, b)
     prev = None if previous is None else np.asarray(previous, dtype=float)
-    if problem.is_sequential and (prev is None or prev.ndim == 1):
+    sequential = problem.is_sequential and (prev is None or prev.ndim == 1)
+    # For a sequence this is the shape of every smoothed pose, to choose and check with.
+    form = problem.standard_form_from(robot, A, b, np.zeros(robot.m) if sequential else prev)
+    chosen = _resolve(backend, form)
+    _check_supported(chosen, form)
+    if sequential:
         raw, lb, ub, prevs = _solve_sequence(chosen, problem, robot, A, b, prev, options)
     else:
-        form = problem.standard_form_from(robot, A, b, prev)
-        _check_supported(chosen, form)
         raw = chosen.solve(form, **options)
         lb, ub, prevs = form.lb, form.ub, form.previous
     raw.setup_time += geometry_time
     return finish(raw, problem, chosen, A, b, lb, ub, prevs)
 
 
-def _resolve(backend: str | Backend, problem: TensionProblem, robot: CableRobot, A: NDArray,
-             b: NDArray) -> Backend:
+def _resolve(backend: str | Backend, form: StandardForm) -> Backend:
     if isinstance(backend, Backend):
         return backend
     if backend != "auto":
         return get_backend(backend)
     installed = set(available_backends())
-    # What a backend supports depends on the problem's shape, not on the values.
-    probe = problem.standard_form_from(
-        robot, A, b, None if not problem.is_sequential else np.zeros(robot.m))
     for name in _AUTO_ORDER:
         if name in installed:
             candidate = get_backend(name)
-            if candidate.unsupported(probe) is None:
+            if candidate.unsupported(form) is None:
                 return candidate
-    raise UnsupportedProblemError(f"no installed backend supports {problem.name}")
+    raise UnsupportedProblemError(f"no installed backend supports {form.problem.name}")
 
 
 def _check_supported(backend: Backend, form: StandardForm) -> None:
@@ -120,8 +118,6 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
     unique = np.ones(N, dtype=bool)
     lbs, ubs, prevs = np.empty((N, m)), np.empty((N, m)), np.full((N, m), np.nan)
     setup = solve = 0.0
-    # Every pose after the first is the smoothed problem: the backend must take that one.
-    _check_supported(backend, problem.standard_form_from(robot, A[:1], b[:1], np.zeros(m)))
     last = previous
     for k in range(N):
         if last is None or not np.isfinite(last).all():
@@ -129,7 +125,10 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
         else:
             form = problem.standard_form_from(robot, A[k:k + 1], b[k:k + 1], last)
             prevs[k] = last
-        raw = backend.solve(form, **options)
+        # A pose with no previous solution is unsmoothed (an LP for min-sum), which a
+        # QP-only backend hands to the automatic choice.
+        solver = backend if backend.unsupported(form) is None else _resolve("auto", form)
+        raw = solver.solve(form, **options)
         tensions[k], status[k] = raw.tensions[0], raw.status[0]
         unique[k] = True if raw.unique is None else raw.unique[0]
         if iterations is not None and raw.iterations is not None:
