@@ -72,6 +72,7 @@ def distribute(
     form = problem.standard_form_from(robot, A, b, np.zeros(robot.m) if sequential else prev)
     chosen = _resolve(backend, form)
     _check_supported(chosen, form)
+    prevs: NDArray | None
     if sequential:
         raw, lb, ub, prevs = _solve_sequence(chosen, problem, robot, A, b, prev, options)
     else:
@@ -92,7 +93,8 @@ def _resolve(backend: str | Backend, form: StandardForm) -> Backend:
             candidate = get_backend(name)
             if candidate.unsupported(form) is None:
                 return candidate
-    raise UnsupportedProblemError(f"no installed backend supports {form.problem.name}")
+    label = form.problem.name if form.problem is not None else "this problem"
+    raise UnsupportedProblemError(f"no installed backend supports {label}")
 
 
 def _check_supported(backend: Backend, form: StandardForm) -> None:

@@ -108,7 +108,7 @@ class TensionProblem:
     @property
     def name(self) -> str:
         """Short label, e.g. ``"min_sum"`` or ``"min_sum+smooth(1e-3)"``."""
-        label = self.objective.value  # type: ignore[union-attr]
+        label = Objective(self.objective).value
         if self.smoothing:
             label += f"+smooth({self.smoothing:g})"
         if self.rate_limit is not None:
@@ -326,8 +326,8 @@ class StandardForm:
         """True for LPs, whose optimum may be non-unique."""
         return self.kind in ("lp", "minmax")
 
-    def subset(self, index: NDArray) -> StandardForm:
-        """The problems of the poses ``index`` only."""
+    def subset(self, index: NDArray | slice) -> StandardForm:
+        """The problems of the poses ``index`` (indices, mask or slice) only."""
         pick = lambda a: None if a is None else a[index]  # noqa: E731
         return StandardForm(self.A[index], self.b[index], self.lb[index], self.ub[index],
                             self.q[index], self.c[index], self.minmax, self.problem,

@@ -183,7 +183,7 @@ def qp_2d(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
     value = np.where(ok, value, np.inf)
     best = np.argmin(value, axis=1)
     rows = np.arange(len(T0))
-    feasible = ok.any(axis=1)
+    feasible = np.asarray(ok.any(axis=1))
     z = np.where(feasible[:, None], points[rows, best], np.nan)
     return z, feasible
 

@@ -22,7 +22,7 @@ from tension_opt.solution import Status
 try:
     import cvxpy as cp
 except ImportError:  # pragma: no cover - cvxpy is a runtime dependency
-    cp = None
+    cp = None  # type: ignore[assignment]
 
 #: Solver options for accuracy="high", in each solver's own names (as cvxpy passes them).
 HIGH_ACCURACY: dict[str, dict[str, Any]] = {
@@ -113,7 +113,8 @@ class _Compiled:
             self.q.value = form.q[rows] * (s**2 / sigma)[:, None]
         if self.v_scale is not None:
             self.v_scale.value = s / sigma
-        if self.G is not None:
+        if self.G is not None and self.h is not None:
+            assert form.G is not None and form.h is not None  # compiled from such a form
             for k, i in enumerate(rows):
                 self.G[k].value = form.G[i]
             self.h.value = form.h[rows] / s[:, None]
@@ -206,6 +207,7 @@ class CvxpyBackend(Backend):
                 chunk_ok = result[0] is Status.OPTIMAL
             if chunk_ok:
                 st, count, x = result
+                assert x is not None  # an optimal solve has values
                 real = rows[: min(K, N - start)]
                 T[real] = x[: len(real)] * s[real, None]
                 status[real] = st

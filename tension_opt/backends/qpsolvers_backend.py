@@ -23,7 +23,7 @@ from tension_opt.solution import Status
 try:
     import qpsolvers
 except ImportError:  # pragma: no cover - qpsolvers is a runtime dependency
-    qpsolvers = None
+    qpsolvers = None  # type: ignore[assignment]
 
 #: Solver options for accuracy="high", in each solver's own names.
 HIGH_ACCURACY: dict[str, dict[str, Any]] = {
@@ -174,18 +174,17 @@ class QpsolversBackend(Backend):
         setup += time.perf_counter() - t0
         t0 = time.perf_counter()
         solve = daqp.solve
-        H, c, A, upper, lower = (list(H), list(batch.c), list(rows), list(upper),
-                                 list(lower))
+        Hs, c, A, ups, lows = (list(H), list(batch.c), list(rows), list(upper), list(lower))
         flags = np.empty(N, dtype=int)
         # Results go straight into arrays: holding DAQP's per-call outputs (arrays and
         # dicts) until the end of the loop cost as much as the solves themselves.
         x_prev = None
         for i in range(N):
             if warm or settings:
-                x, _, flag, info = solve(H[i], c[i], A[i], upper[i], lower[i], sense,
+                x, _, flag, info = solve(Hs[i], c[i], A[i], ups[i], lows[i], sense,
                                          primal_start=x_prev if warm else None, **settings)
             else:  # the common case, free of keyword handling
-                x, _, flag, info = solve(H[i], c[i], A[i], upper[i], lower[i], sense)
+                x, _, flag, info = solve(Hs[i], c[i], A[i], ups[i], lows[i], sense)
             flags[i] = flag
             iters[i] = info["iterations"]
             if flag > 0:
@@ -193,8 +192,8 @@ class QpsolversBackend(Backend):
                 x_prev = x
         good = flags > 0
         status[good] = Status.OPTIMAL
-        for i in np.flatnonzero(~good):
-            status[i] = _DAQP_EXIT.get(int(flags[i]), Status.SOLVER_ERROR)
+        for j in np.flatnonzero(~good):
+            status[j] = _DAQP_EXIT.get(int(flags[j]), Status.SOLVER_ERROR)
         elapsed = time.perf_counter() - t0
         return RawResult(batch.tensions(x_all), status, iters, setup, elapsed)
 
