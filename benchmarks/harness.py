@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import multiprocessing as mp
 import os
+import platform
 import sys
 import time
 import warnings
@@ -214,9 +215,16 @@ class CellResult:
     trace: NDArray | None = None
 
 
+def machine_label() -> str:
+    """Host, CPU, core count and Python of this machine: rows are reused only on it."""
+    return (f"{platform.node()} / {platform.processor() or platform.machine()} / "
+            f"{os.cpu_count()} cores / Python {sys.version.split()[0]}")
+
+
 def _base_row(cell: Cell) -> dict[str, Any]:
     sc = cell.scenario
     return {
+        "machine": machine_label(),
         "scenario": sc.name, "problem": cell.problem.name, "backend": cell.backend,
         "setting": cell.setting.label, "accuracy": cell.setting.accuracy,
         "warm_start": cell.setting.warm_start, "status": "ok", "message": "",
@@ -463,8 +471,9 @@ class ResultsStore:
         return self.read()[1]
 
     def done(self) -> set[Key]:
-        """Keys of the stored rows."""
-        return set(self.read()[0])
+        """Keys of the rows stored by this machine (rows measured elsewhere are re-run)."""
+        here = machine_label()
+        return {key for key, row in self.read()[0].items() if row.get("machine") == here}
 
     # writing
     def append(self, row: dict[str, Any], trace: NDArray | None = None) -> None:

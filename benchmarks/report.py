@@ -349,6 +349,10 @@ def build_markdown(frame: pd.DataFrame, figures: dict[str, str]) -> str:
              f"{len(frame)} cells.", "", "## Machine and libraries", "",
              "| item | value |", "|---|---|"]
     lines += [f"| {k} | {v} |" for k, v in machine_info()]
+    if "machine" in frame and not frame.empty:
+        measured = ", ".join(f"{m} ({n} cells)" for m, n in
+                             frame["machine"].fillna("unknown").value_counts().items())
+        lines += ["", f"Cells measured on: {measured}."]
     lines += ["", "## Settings", "", *_settings_lines(), ""]
     if frame.empty:
         return "\n".join([*lines, "No results yet.", ""])

@@ -149,3 +149,16 @@ def test_default_suite_cuts_only_unchosen_dimensions() -> None:
                     ("cogiro_random", "min_sum", "closed_form", "default/cold"),
                     ("cogiro_random", "min_sum", "cvxpy:CLARABEL", "default/cold")}
     assert len(harness.default_suite(cells, chosen=["scenario", "backend", "settings"])) == 12
+
+
+def test_rows_measured_on_another_machine_are_run_again(tmp_path: Path,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    cells = _cells()[:2]
+    store = harness.ResultsStore(tmp_path)
+    harness.run(cells, store, progress=False, isolate=False)
+    assert store.done() == {c.key for c in cells}
+    monkeypatch.setattr(harness, "machine_label", lambda: "another host / cpu / 2 cores")
+    assert store.done() == set()  # a fresh clone's stored rows are not its own
+    frame = harness.run(cells, store, progress=False, isolate=False)
+    assert (frame["machine"] == "another host / cpu / 2 cores").all()
+    assert store.done() == {c.key for c in cells}
