@@ -18,12 +18,10 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 from benchmarks import harness, metrics
@@ -199,43 +197,57 @@ def headline(frame: pd.DataFrame, scenario: str = "thesis_trajectory",
 
 
 # -------------------------------------------------------------------- plots
+def _finish(fig: Figure, path: Path | None, dpi: int) -> Figure:
+    """Save and close ``fig`` when a path is given; return it."""
+    if path is not None:
+        fig.savefig(path, dpi=dpi)
+        plt.close(fig)
+    return fig
+
+
 def plot_traces(scenario: str, traces: dict[tuple[str, ...], NDArray], frame: pd.DataFrame,
-                path: Path) -> bool:
-    """Tension traces along a trajectory, one panel per problem. Returns False if none."""
+                path: Path | None = None) -> Figure | None:
+    """Tension traces along a trajectory, one panel per problem; None if there are none.
+
+    With ``path`` the figure is saved there and closed; without, it is returned open.
+    """
     picked = _pick_trace_backend(frame[frame["scenario"] == scenario])
     panels = [(p, r["backend"]) for p, r in picked.iterrows()
               if (scenario, p, r["backend"], BASE_SETTING) in traces]
     panels.sort(key=lambda pb: list(PROBLEMS).index(pb[0]) if pb[0] in PROBLEMS else 99)
     if not panels:
-        return False
+        return None
     cols = 4 if len(panels) > 4 else len(panels)
     rows = int(np.ceil(len(panels) / cols))
     fig, axes = plt.subplots(rows, cols, figsize=(3.0 * cols, 2.3 * rows), squeeze=False,
                              sharex=True)
     for ax, (problem, backend) in zip(axes.flat, panels, strict=False):
         T = traces[(scenario, problem, backend, BASE_SETTING)]
-        ax.plot(np.arange(len(T)), T / 1e3, lw=1.2)
+        lines = ax.plot(np.arange(len(T)), T / 1e3, lw=1.2)
         ax.set_title(f"{problem} ({backend})", fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
     for ax in axes.flat[len(panels):]:
         ax.axis("off")
+    fig.legend(lines, [f"cable {i + 1}" for i in range(len(lines))], loc="upper right",
+               fontsize=7, ncol=min(len(lines), 8))
     for ax in axes[:, 0]:
         ax.set_ylabel("tension (kN)", fontsize=8)
     for ax in axes[-1]:
         ax.set_xlabel("pose", fontsize=8)
     fig.suptitle(f"{scenario}: cable tensions along the path", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=72)
-    plt.close(fig)
-    return True
+    return _finish(fig, path, dpi=72)
 
 
-def plot_time_per_pose(frame: pd.DataFrame, path: Path) -> bool:
-    """Median time per pose of every ok cell at the base setting, per backend (log scale)."""
+def plot_time_per_pose(frame: pd.DataFrame, path: Path | None = None) -> Figure | None:
+    """Median time per pose of every ok cell at the base setting, per backend (log scale).
+
+    With ``path`` the figure is saved there and closed; without, it is returned open.
+    """
     ok = frame[(frame["status"] == "ok") & (frame["setting"] == BASE_SETTING)]
     if ok.empty:
-        return False
+        return None
     backends = _backend_order(ok)
     scenarios = list(dict.fromkeys(ok["scenario"]))
     fig, ax = plt.subplots(figsize=(max(6.0, 0.45 * len(backends) + 2), 4.2))
@@ -252,13 +264,13 @@ def plot_time_per_pose(frame: pd.DataFrame, path: Path) -> bool:
     ax.legend(fontsize=7)
     ax.set_title(f"time per pose, each dot a problem ({BASE_SETTING})", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return True
+    return _finish(fig, path, dpi=90)
 
 
-def plot_performance_profile(frame: pd.DataFrame, path: Path) -> bool:
+def plot_performance_profile(frame: pd.DataFrame, path: Path | None = None) -> Figure | None:
     """Performance profile of the median time per pose (Dolan-More), at the base setting.
+
+    With ``path`` the figure is saved there and closed; without, it is returned open.
 
     Instances are the (scenario, problem) pairs that every backend in the table ran;
     a cell that is not ok there (unsupported, failed) counts as never solved.
@@ -266,7 +278,7 @@ def plot_performance_profile(frame: pd.DataFrame, path: Path) -> bool:
     base = frame[(frame["setting"] == BASE_SETTING) & (frame["status"] != "not_installed")]
     ranked = with_time_ratio(base)
     if ranked["time_ratio"].notna().sum() == 0:
-        return False
+        return None
     index = ["scenario", "problem"]
     present = ranked.pivot_table(index=index, columns="backend", values="status",
                                  aggfunc="first").notna().all(axis=1)
@@ -275,7 +287,7 @@ def plot_performance_profile(frame: pd.DataFrame, path: Path) -> bool:
     wide = wide[present.reindex(wide.index).fillna(False).to_numpy(dtype=bool)]
     finite = wide.to_numpy()[np.isfinite(wide.to_numpy())]
     if wide.empty or finite.size == 0:
-        return False
+        return None
     taus = np.logspace(0, np.log10(max(2.0, float(finite.max()) * 1.1)), 200)
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for backend in _backend_order(ranked):
@@ -291,19 +303,20 @@ def plot_performance_profile(frame: pd.DataFrame, path: Path) -> bool:
     ax.set_title(f"performance profile over {len(wide)} scenario x problem instances "
                  f"({BASE_SETTING})", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return True
+    return _finish(fig, path, dpi=90)
 
 
-def plot_smoothness(frame: pd.DataFrame, path: Path) -> bool:
-    """Bars of total variation and largest step per problem, per trajectory scenario."""
+def plot_smoothness(frame: pd.DataFrame, path: Path | None = None) -> Figure | None:
+    """Bars of total variation and largest step per problem, per trajectory scenario.
+
+    With ``path`` the figure is saved there and closed; without, it is returned open.
+    """
     scenarios = [s for s in dict.fromkeys(frame["scenario"])
                  if s in SCENARIOS and SCENARIOS[s].trajectory]
     tables = [(s, smoothness_table(frame[frame["scenario"] == s])) for s in scenarios]
     tables = [(s, t) for s, t in tables if not t.empty]
     if not tables:
-        return False
+        return None
     fig, axes = plt.subplots(len(tables), 2, figsize=(10, 2.6 * len(tables)), squeeze=False)
     for (scenario, table), row in zip(tables, axes, strict=True):
         for ax, col in zip(row, ("TV (N)", "max step (N)"), strict=True):
@@ -312,9 +325,7 @@ def plot_smoothness(frame: pd.DataFrame, path: Path) -> bool:
             ax.tick_params(axis="x", rotation=45, labelsize=7)
             ax.grid(alpha=0.3, axis="y")
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return True
+    return _finish(fig, path, dpi=90)
 
 
 # ------------------------------------------------------------------- report
@@ -444,18 +455,18 @@ def write_report(directory: str | os.PathLike[str] = harness.RESULTS_DIR) -> Pat
     out.mkdir(parents=True, exist_ok=True)
     figures: dict[str, str] = {}
     if not frame.empty:
-        if plot_time_per_pose(frame, out / "time_per_pose.png"):
+        if plot_time_per_pose(frame, out / "time_per_pose.png") is not None:
             figures["time_per_pose.png"] = "Median time per pose per backend (log scale)."
-        if plot_performance_profile(frame, out / "performance_profile.png"):
+        if plot_performance_profile(frame, out / "performance_profile.png") is not None:
             figures["performance_profile.png"] = (
                 "Performance profile: fraction of the instances every backend ran that a "
                 "backend solves within a factor of the best time per pose (unsupported counts "
                 "as unsolved).")
-        if plot_smoothness(frame, out / "smoothness.png"):
+        if plot_smoothness(frame, out / "smoothness.png") is not None:
             figures["smoothness.png"] = "Total variation and largest step of the tensions."
         for scenario in dict.fromkeys(frame["scenario"]):
             name = f"traces_{scenario}.png"
-            if plot_traces(scenario, traces, frame, out / name):
+            if plot_traces(scenario, traces, frame, out / name) is not None:
                 figures[name] = f"Tensions along {scenario}, one panel per problem."
     path = out / REPORT_FILE
     tmp = path.with_suffix(".md.tmp")
