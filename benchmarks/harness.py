@@ -10,18 +10,26 @@ Rows are kept in ``results.csv`` (and the tension traces of short trajectories i
 ``traces.npz``), rewritten through a temporary file and an atomic rename after every
 cell: an interrupted run loses at most the cell in progress, and a new run skips the
 cells already in the file unless told to redo them.
+
+With an executor (:func:`run` with ``executor=``; ``python -m benchmarks run --executor
+processes:2`` or ``--executor dask:tcp://host:8786``), the cells are sent in chunks to a
+local process pool or a Dask cluster (see :mod:`tension_opt.executors`); the table is the
+same as an in-process run apart from the timing columns and, on other hosts, ``machine``.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import multiprocessing as mp
 import os
+import pickle
 import platform
 import sys
 import time
 import warnings
-from collections.abc import Collection, Iterable, Sequence
+from collections.abc import Collection, Iterable, Iterator, Sequence
+from concurrent.futures import BrokenExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -35,6 +43,7 @@ from benchmarks import metrics
 from benchmarks.scenarios import PROBLEMS, SCENARIOS, NotAvailableError, ProblemSpec, Scenario
 from benchmarks.scenarios import applicable as _applicable
 from tension_opt import BackendNotAvailableError, UnsupportedProblemError
+from tension_opt.executors import DaskExecutor, Executor, get_executor
 
 RESULTS_DIR = Path(__file__).resolve().parent / "results"
 RESULTS_FILE = "results.csv"
@@ -63,6 +72,12 @@ JUMP_FRACTION = 0.1
 TIME_LIMIT = 10.0
 #: Extra seconds before an isolated cell that overran its time limit is killed.
 GRACE = 5.0
+#: Largest number of cells sent to an executor's worker as one task.
+CHUNK_CELLS = 4
+#: Columns that hold measured times (they differ from run to run); all others are
+#: reproducible, whichever executor ran the cell.
+TIMING_COLUMNS = ("setup_us_median", "setup_us_p95", "solve_us_median", "solve_us_p95",
+                  "time_us_median", "time_us_p95", "wall_time_s")
 
 
 # ------------------------------------------------------------------ the matrix
@@ -470,10 +485,17 @@ class ResultsStore:
         """Stored traces by key, each of shape (N, m) (N)."""
         return self.read()[1]
 
-    def done(self) -> set[Key]:
-        """Keys of the rows stored by this machine (rows measured elsewhere are re-run)."""
-        here = machine_label()
-        return {key for key, row in self.read()[0].items() if row.get("machine") == here}
+    def done(self, machines: Collection[str] | None = None) -> set[Key]:
+        """Keys of the rows stored by this machine (rows measured elsewhere are re-run).
+
+        Parameters
+        ----------
+        machines : collection of str, optional
+            Machine labels (see :func:`machine_label`) whose rows count as done, e.g. the
+            workers of a cluster. Default: this machine only.
+        """
+        here = {machine_label()} if machines is None else set(machines)
+        return {key for key, row in self.read()[0].items() if row.get("machine") in here}
 
     # writing
     def append(self, row: dict[str, Any], trace: NDArray | None = None) -> None:
@@ -591,6 +613,8 @@ def run(
     time_limit: float = TIME_LIMIT,
     progress: bool = True,
     isolate: bool = True,
+    executor: str | Executor | Any | None = None,
+    chunk_size: int | None = None,
 ) -> pd.DataFrame:
     """Run the cells not yet in the store and return the whole stored table.
 
@@ -603,14 +627,30 @@ def run(
     redo : bool
         Run the cells again even if they are stored (their rows are replaced).
     time_limit : float
-        Budget of each cell (s). It is passed to the solvers and checked between chunks;
-        with ``isolate``, a cell still running :data:`GRACE` seconds after its budget
-        is killed and stored with status ``"time_limit"``.
+        Budget of each cell (s). It is passed to the solvers and checked between chunks
+        of poses; with ``isolate`` and no executor, a cell still running :data:`GRACE`
+        seconds after its budget is killed and stored with status ``"time_limit"``.
+        With an executor the limit is only this soft one: a worker of a pool or of a
+        Dask cluster cannot be killed per cell, so a solver that hangs inside one call
+        holds its worker until it returns.
     progress : bool
-        Show a tqdm progress bar.
+        Show a tqdm progress bar (over cells; with an executor it advances per chunk).
     isolate : bool
-        Run the cells in a forked worker process (hard time limit, survives a crashing
-        solver). False runs them in this process.
+        Without an executor: run the cells in a forked worker process (hard time limit,
+        survives a crashing solver). False runs them in this process. Ignored with an
+        executor.
+    executor : str, Executor or dask.distributed.Client, optional
+        Where the cells run (see :func:`tension_opt.executors.get_executor`):
+        ``"inprocess"``, ``"processes[:N]"``, ``"dask[:ADDRESS]"``, an executor or a
+        Dask client. The cells go in chunks of at most ``chunk_size`` cells of one
+        scenario; the rows are stored as the chunks come back, in order, so an
+        interrupted run keeps every chunk returned before. Rows carry the machine of
+        the worker that ran them, and rows of the cluster's machines count as done. An
+        executor named by a string is closed at the end; one passed in is left open.
+        None (default): in this process, as described under ``isolate``.
+    chunk_size : int, optional
+        Cells per chunk sent to the executor (default: up to :data:`CHUNK_CELLS`, fewer
+        when there are not two chunks per worker).
 
     Returns
     -------
@@ -621,11 +661,17 @@ def run(
     ------
     KeyboardInterrupt
         If interrupted; every cell finished before is stored.
+    concurrent.futures.BrokenExecutor
+        If a worker of the process pool died (every pending chunk fails then, so the
+        culprit is unknown); the rows returned before are stored. With Dask, a chunk
+        whose workers keep dying becomes ``"error"`` rows and the run goes on.
     """
     store = store or ResultsStore()
+    if executor is not None:
+        return _run_on(cells, store, redo, time_limit, progress, executor, chunk_size)
     done = set() if redo else store.done()
     todo = [c for c in cells if c.key not in done]
-    keep = set(TRACE_BACKENDS) & {c.backend for c in cells} or {c.backend for c in cells}
+    keep = _trace_backends(cells)
     references: dict[tuple[str, str], NDArray | None] = {}
     worker: _Worker | None = None
     saved = time.perf_counter()
@@ -653,9 +699,7 @@ def run(
                     else:
                         row.update(status="error", message=str(payload))
                     result = CellResult(row)
-            trace = (result.trace if cell.setting == ALL_SETTINGS[0] and cell.backend in keep
-                     else None)
-            store.append(result.row, trace)
+            _store(store, cell, result, keep)
             if time.perf_counter() - saved > CONSOLIDATE_EVERY:
                 store.consolidate()
                 saved = time.perf_counter()
@@ -663,6 +707,202 @@ def run(
         if worker is not None:
             worker.close(kill=sys.exc_info()[0] is not None)
     return store.consolidate()
+
+
+def _trace_backends(cells: Sequence[Cell]) -> set[str]:
+    return set(TRACE_BACKENDS) & {c.backend for c in cells} or {c.backend for c in cells}
+
+
+def _store(store: ResultsStore, cell: Cell, result: CellResult, keep: set[str]) -> None:
+    trace = (result.trace if cell.setting == ALL_SETTINGS[0] and cell.backend in keep
+             else None)
+    store.append(result.row, trace)
+
+
+# ------------------------------------------------------------ on an executor
+@dataclass(frozen=True)
+class _Pickled:
+    """An object serialised with cloudpickle (a scenario or problem holding lambdas)."""
+
+    data: bytes
+
+
+@dataclass(frozen=True)
+class CellChunk:
+    """Cells of one scenario as sent to a worker (see :func:`run_chunk`).
+
+    Scenarios and problems of the registries travel by name and are rebuilt by the
+    worker (their poses are seeded, so identical everywhere); others travel pickled.
+
+    Attributes
+    ----------
+    scenario : str or object
+        Name in :data:`~benchmarks.scenarios.SCENARIOS`, or the scenario itself.
+    cells : tuple of (problem, backend, setting)
+        Problem by name in :data:`~benchmarks.scenarios.PROBLEMS`, or itself.
+    time_limit : float
+        Soft budget of each cell (s).
+    """
+
+    scenario: Any
+    cells: tuple[tuple[Any, str, Setting], ...]
+    time_limit: float = TIME_LIMIT
+
+    @classmethod
+    def of(cls, cells: Sequence[Cell], time_limit: float = TIME_LIMIT) -> CellChunk:
+        """The chunk of ``cells``, which must share one scenario."""
+        scenarios = {id(c.scenario) for c in cells}
+        if len(scenarios) != 1:
+            raise ValueError("the cells of a chunk must share one scenario")
+        portable: dict[int, Any] = {}
+        return cls(_portable(cells[0].scenario, SCENARIOS, portable),
+                   tuple((_portable(c.problem, PROBLEMS, portable), c.backend, c.setting)
+                         for c in cells), time_limit)
+
+
+def _portable(obj: Any, registry: dict[str, Any], memo: dict[int, Any]) -> Any:
+    """``obj``'s registry name, else ``obj`` if it pickles, else its cloudpickle."""
+    if id(obj) in memo:
+        return memo[id(obj)]
+    name: str = obj.name
+    if registry.get(name) is obj:
+        memo[id(obj)] = name
+        return name
+    try:
+        pickle.dumps(obj)
+        memo[id(obj)] = obj
+    except Exception as exc:  # lambdas, local functions
+        try:
+            import cloudpickle
+        except ImportError:
+            raise ValueError(
+                f"{type(obj).__name__} {name!r} cannot be sent to worker processes ({exc}); "
+                "register it in benchmarks.scenarios or install cloudpickle "
+                '(pip install "tension-opt[dask]")') from exc
+        memo[id(obj)] = _Pickled(cloudpickle.dumps(obj))
+    return memo[id(obj)]
+
+
+def _resolve(ref: Any, registry: dict[str, Any], memo: dict[int, Any]) -> Any:
+    if id(ref) not in memo:
+        if isinstance(ref, str):
+            memo[id(ref)] = registry[ref]
+        elif isinstance(ref, _Pickled):
+            memo[id(ref)] = pickle.loads(ref.data)
+        else:
+            memo[id(ref)] = ref
+    return memo[id(ref)]
+
+
+def run_chunk(chunk: CellChunk) -> list[CellResult]:
+    """Run the cells of a chunk with :func:`run_cell`, in order; one result per cell.
+
+    This is the function an executor maps over the chunks. It runs on the worker, so the
+    rows carry the worker's :func:`machine_label`; the chunk's cells share one cache of
+    reference objectives.
+    """
+    memo: dict[int, Any] = {}
+    scenario = _resolve(chunk.scenario, SCENARIOS, memo)
+    references: dict[tuple[str, str], NDArray | None] = {}
+    return [run_cell(Cell(scenario, _resolve(problem, PROBLEMS, memo), backend, setting),
+                     references, chunk.time_limit)
+            for problem, backend, setting in chunk.cells]
+
+
+def chunk_cells(cells: Sequence[Cell], size: int) -> list[list[Cell]]:
+    """Split ``cells`` into consecutive chunks of at most ``size`` cells of one scenario.
+
+    The cells of one (scenario, problem) stay in one chunk when they fit (they share the
+    reference solve); the order of the cells is kept.
+    """
+    if size < 1:
+        raise ValueError(f"chunk size must be >= 1; got {size}")
+    groups: list[list[Cell]] = []
+    for cell in cells:
+        last = groups[-1][-1] if groups else None
+        if (last is not None and last.scenario is cell.scenario
+                and last.problem is cell.problem):
+            groups[-1].append(cell)
+        else:
+            groups.append([cell])
+    chunks: list[list[Cell]] = []
+    for group in groups:
+        for start in range(0, len(group), size):
+            piece = group[start:start + size]
+            if (chunks and start == 0 and chunks[-1][0].scenario is piece[0].scenario
+                    and len(chunks[-1]) + len(piece) <= size):
+                chunks[-1].extend(piece)
+            else:
+                chunks.append(piece)
+    return chunks
+
+
+def executor_machines(executor: Executor) -> set[str]:
+    """Machine labels of an executor's workers and of this machine.
+
+    A process pool runs here; a Dask cluster is asked for the label of every worker.
+    """
+    machines = {machine_label()}
+    if isinstance(executor, DaskExecutor):
+        machines |= {str(v) for v in executor.client.run(machine_label).values()}
+    return machines
+
+
+def _run_on(cells: Sequence[Cell], store: ResultsStore, redo: bool, time_limit: float,
+            progress: bool, executor: str | Executor | Any, chunk_size: int | None,
+            ) -> pd.DataFrame:
+    """:func:`run` through an executor."""
+    owned = isinstance(executor, str)
+    runner = get_executor(executor)
+    try:
+        done = set() if redo else store.done(executor_machines(runner))
+        todo = [c for c in cells if c.key not in done]
+        if chunk_size is None:
+            chunk_size = max(1, min(CHUNK_CELLS, math.ceil(len(todo) / (2 * runner.workers))))
+        chunks = chunk_cells(todo, chunk_size)
+        payloads = [CellChunk.of(c, time_limit) for c in chunks]
+        keep = _trace_backends(cells)
+        saved = time.perf_counter()
+        bar = _progress_bar(len(todo), progress)
+        index = 0
+        results: Iterator[list[CellResult]] = iter(runner.map(run_chunk, payloads))
+        try:
+            while index < len(chunks):
+                chunk = chunks[index]
+                try:
+                    chunk_results = next(results)
+                except (KeyboardInterrupt, BrokenExecutor):
+                    raise
+                except Exception as exc:  # a worker died, a lost connection ...
+                    message = f"worker failed: {type(exc).__name__}: {_short(exc)}"
+                    chunk_results = [CellResult({**_base_row(c), "status": "error",
+                                                 "message": message}) for c in chunk]
+                    # The map stops at its first error: send the rest again.
+                    results = iter(runner.map(run_chunk, payloads[index + 1:]))
+                for cell, result in zip(chunk, chunk_results, strict=True):
+                    _store(store, cell, result, keep)
+                index += 1
+                if bar is not None:
+                    bar.set_postfix_str("/".join(chunk[-1].key), refresh=False)
+                    bar.update(len(chunk))
+                if time.perf_counter() - saved > CONSOLIDATE_EVERY:
+                    store.consolidate()
+                    saved = time.perf_counter()
+        finally:
+            if bar is not None:
+                bar.close()
+    finally:
+        if owned:
+            runner.close()
+    return store.consolidate()
+
+
+def _progress_bar(total: int, enabled: bool) -> Any:
+    if not enabled:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="cell", dynamic_ncols=True)
 
 
 def _progress(todo: list[Cell], enabled: bool) -> Any:
