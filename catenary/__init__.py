@@ -25,7 +25,14 @@ from .kinematics import (
     forward_kinematics,
     inverse_kinematics,
 )
-from .materials import MATERIALS, CableMaterial, cable_properties, get_material
+from .materials import (
+    MATERIALS,
+    CableMaterial,
+    breaking_load,
+    cable_properties,
+    get_material,
+    material_names,
+)
 from .solve import ForcesResult, LengthResult, solve_forces, solve_length
 
 __all__ = [
@@ -37,12 +44,14 @@ __all__ = [
     "InvalidCableError",
     "InverseKinematicsResult",
     "LengthResult",
+    "breaking_load",
     "cable_properties",
     "flexibility",
     "forward_kinematics",
     "get_material",
     "inverse_kinematics",
     "length_derivative",
+    "material_names",
     "profile",
     "solve_forces",
     "solve_length",
