@@ -34,6 +34,7 @@ from .materials import (
     material_names,
 )
 from .solve import ForcesResult, LengthResult, solve_forces, solve_length
+from .workspace import SagWorkspaceResult, coupled_margin, sag_workspace
 
 __all__ = [
     "MATERIALS",
@@ -44,8 +45,10 @@ __all__ = [
     "InvalidCableError",
     "InverseKinematicsResult",
     "LengthResult",
+    "SagWorkspaceResult",
     "breaking_load",
     "cable_properties",
+    "coupled_margin",
     "flexibility",
     "forward_kinematics",
     "get_material",
@@ -53,6 +56,7 @@ __all__ = [
     "length_derivative",
     "material_names",
     "profile",
+    "sag_workspace",
     "solve_forces",
     "solve_length",
     "span_jacobian",

@@ -267,6 +267,7 @@ def inverse_kinematics(
     *,
     tol: float = 1e-10,
     max_iter: int = 50,
+    initial_tensions: ArrayLike | None = None,
     **options: Any,
 ) -> InverseKinematicsResult:
     """Unstretched cable lengths and cable forces of a batch of poses, with sag.
@@ -296,6 +297,10 @@ def inverse_kinematics(
         the largest tension of the pose.
     max_iter : int
         Coupled model: iteration limit of the sequential convex programming.
+    initial_tensions : array_like, shape (N, m), optional
+        Coupled model: platform-end tensions (N) to start from instead of the
+        straight-line distribution, for the poses whose row is finite; such poses are
+        attempted even where the straight-line distribution is infeasible.
     **options
         Passed to the backend.
 
@@ -336,8 +341,13 @@ def inverse_kinematics(
     geo = _geometry(robot, p)
     N, m = geo.x.shape
     sol = tension_opt.distribute(robot, p, objective, backend, wrench=wrench, **options)
-    T_straight = sol.tensions
     ok = sol.success.copy()
+    if initial_tensions is not None and model == "coupled" and w > 0.0:
+        start = np.broadcast_to(np.asarray(initial_tensions, dtype=float), (N, m))
+        given = np.isfinite(start).all(axis=1)
+        sol.tensions = np.where(given[:, None], start, sol.tensions)
+        ok |= given
+    T_straight = sol.tensions
     status = np.where(ok, "converged", "infeasible").astype("<U15")
     iterations = np.zeros(N, np.int64)
     cat_its = np.zeros((N, m), np.int64)

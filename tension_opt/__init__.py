@@ -5,7 +5,7 @@ norm, pseudo-inverse, min-max, centred, smoothed), solved by exact closed forms,
 cvxpy, qpsolvers or scipy/HiGHS, over batches of poses.
 """
 
-from tension_opt import presets
+from tension_opt import presets, workspace
 from tension_opt.backends import available_backends, get_backend
 from tension_opt.distribute import distribute
 from tension_opt.errors import (
@@ -18,6 +18,12 @@ from tension_opt.errors import (
 from tension_opt.problems import Objective, TensionProblem
 from tension_opt.robot import CableProperties, CableRobot
 from tension_opt.solution import Status, TensionSolution
+from tension_opt.workspace import (
+    WorkspaceResult,
+    capacity_margin,
+    workspace_grid,
+    wrench_feasible_workspace,
+)
 
 __version__ = "0.1.0"
 
@@ -33,8 +39,13 @@ __all__ = [
     "TensionProblem",
     "TensionSolution",
     "UnsupportedProblemError",
+    "WorkspaceResult",
     "available_backends",
+    "capacity_margin",
     "distribute",
     "get_backend",
     "presets",
+    "workspace",
+    "workspace_grid",
+    "wrench_feasible_workspace",
 ]
