@@ -1023,8 +1023,14 @@ def plot_slice(result: WorkspaceResult, z: float | None = None, quantity: str = 
         col = 2 if kind == "planar_point2" else 1
         anchors = result.robot.anchors
         ax.scatter(anchors[:, 0], anchors[:, col], marker="^", s=60, c="crimson",
-                   edgecolors="k", zorder=3, label="drawing points")
-        ax.legend(loc="upper right", fontsize="small")
+                   edgecolors="k", zorder=3, label="drawing points", clip_on=False)
+        # Room for the drawing points, which often sit on the edge of the grid's box.
+        span = [np.concatenate([xs, anchors[:, 0]]), np.concatenate([ys, anchors[:, col]])]
+        for lim, vals, cur in ((ax.set_xlim, span[0], ax.get_xlim()),
+                               (ax.set_ylim, span[1], ax.get_ylim())):
+            lo, hi = min(cur[0], vals.min()), max(cur[1], vals.max())
+            pad = 0.03 * (hi - lo)
+            lim(lo - pad, hi + pad)
     unit = {"theta": "rad"}
     ax.set_xlabel(f"{names[h]} ({unit.get(names[h], 'm')})")
     ax.set_ylabel(f"{names[v]} ({unit.get(names[v], 'm')})")
@@ -1032,7 +1038,9 @@ def plot_slice(result: WorkspaceResult, z: float | None = None, quantity: str = 
     title = result.label(quantity)
     if layer is not None:
         title += f" at z = {layer:.3g} m"
-    ax.set_title(title)
+    if show_anchors and result.robot is not None:
+        title += "  (\u25b2 drawing points)"
+    ax.set_title(title, fontsize="medium")
     return ax
 
 
