@@ -26,6 +26,21 @@ def test_infeasible_pose_gives_status_nan_and_distance_without_stopping_the_batc
     assert str(to.distribute(thesis, poses[1], tight).status[0]) == "infeasible"
 
 
+@pytest.mark.parametrize("objective", ["min_sum", "min_norm", "pinv", "min_max"])
+@pytest.mark.parametrize("backend", ["closed_form", "cvxpy:CLARABEL"])
+def test_pose_at_tower_height_is_infeasible_not_an_exception(thesis, objective, backend):
+    # At z = tower height every cable is horizontal: the structure matrix loses its
+    # vertical row and no tensions hold the weight.
+    poses = np.array([[0.0, 0.0, 7.6], [1.0, 2.0, 3.0], [5.0, 5.0, 7.6]])
+    sol = to.distribute(thesis, poses, objective, backend=backend)
+    assert [str(s) for s in sol.status] == ["infeasible", "optimal", "infeasible"]
+    assert np.isnan(sol.tensions[[0, 2]]).all()
+    ref = to.distribute(thesis, poses[1:2], objective, backend=backend)
+    np.testing.assert_allclose(sol.tensions[1], ref.tensions[0], rtol=1e-9)
+    if backend == "closed_form":
+        assert np.isinf(sol.infeasibility[[0, 2]]).all()
+
+
 def test_per_pose_bounds_and_weights(thesis):
     poses = np.array([[5.0, 3.0, 1.0], [-8.0, 2.0, 2.0]])
     t_max = np.array([[5800.0] * 4, [7000.0] * 4])

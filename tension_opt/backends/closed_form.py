@@ -23,6 +23,9 @@ from tension_opt.solution import Status, status_array
 
 #: Poses per block of the four-cable path (about 20 arrays of this length are live).
 _BLOCK = 8192
+_RANK_TOL = 1e-10
+"""A structure matrix whose smallest singular value is below this share of its largest has
+lost rank."""
 
 
 def _det3(a: NDArray, b: NDArray, c: NDArray) -> NDArray:
@@ -99,11 +102,42 @@ class ClosedFormBackend(Backend):
         return RawResult(T, status, np.zeros(form.N, dtype=int), 0.0, elapsed, unique, infeas)
 
     def _solve_general(self, form: StandardForm) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        sv = np.linalg.svd(form.A, compute_uv=False)
+        singular = sv[:, -1] <= _RANK_TOL * sv[:, 0]
+        if singular.any():
+            return self._split_singular(form, singular)
         T0, Z = pinv_and_null(form.A, form.b)
         scale = form.scale()
         if Z.shape[2] == 1:
             return self._solve_1d(form, T0, Z[..., 0], scale)
         return self._solve_2d(form, T0, Z, scale)
+
+    def _split_singular(self, form: StandardForm, singular: NDArray
+                        ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """Poses whose structure matrix has lost rank (e.g. every cable horizontal).
+
+        No tensions hold a wrench outside the range of ``A``: such poses are infeasible
+        at an infinite distance. If the wrench is in the range the null space is larger
+        than the closed form handles, and the pose is reported as a solver error.
+        """
+        N, m = form.N, form.m
+        T = np.full((N, m), np.nan)
+        status = status_array(N)
+        unique = np.ones(N, dtype=bool)
+        infeas = np.full(N, np.nan)
+        regular = np.flatnonzero(~singular)
+        if regular.size:
+            parts = self._solve_general(form.subset(regular))
+            T[regular], status[regular], unique[regular], infeas[regular] = parts
+        bad = np.flatnonzero(singular)
+        A, b = form.A[bad], form.b[bad]
+        T_ls = np.einsum("nij,nj->ni", np.linalg.pinv(A, rcond=_RANK_TOL), b)
+        miss = np.linalg.norm(np.einsum("nij,nj->ni", A, T_ls) - b, axis=1)
+        in_range = miss <= _lowdim.FEAS_TOL * np.maximum(np.linalg.norm(b, axis=1), 1e-300)
+        status[bad[in_range]] = Status.SOLVER_ERROR
+        status[bad[~in_range]] = Status.INFEASIBLE
+        infeas[bad] = np.where(in_range, np.nan, np.inf)
+        return T, status, unique, infeas
 
     def _solve_point4(self, form: StandardForm) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         """Four cables, three equations: the 1-D formulas with poses along the last axis.
@@ -122,7 +156,8 @@ class ClosedFormBackend(Backend):
         C = np.cross(U[[1, 2, 0]], U[[2, 0, 1]], axis=1)
         det = np.einsum("ip,ip->p", U[0], C[0])
         Tp = np.zeros((4, N))
-        Tp[:3] = np.einsum("ip,jip->jp", B, C) / det
+        with np.errstate(divide="ignore", invalid="ignore"):  # det = 0: general path
+            Tp[:3] = np.einsum("ip,jip->jp", B, C) / det
         # Null vector: u1 (u4.c23) + u2 (u4.c31) + u3 (u4.c12) - u4 det(u1, u2, u3) = 0.
         n = np.empty((4, N))
         n[:3] = np.einsum("ip,jip->jp", U[3], C)
