@@ -68,11 +68,11 @@ from tension_opt.workspace import (
     FEAS_TOL,
     Grid,
     WorkspaceResult,
-    _as_wrenches,
     _bounds,
     _margins,
     _merge,
     margin_solve,
+    prepare,
 )
 
 from .kinematics import (
@@ -576,13 +576,7 @@ def sag_workspace(
         ``sag_correction`` (m) per pose, and the straight-line margin for comparison.
     """
     _cable_data(robot)  # fail early without cable properties
-    grid: Grid | None = None
-    if isinstance(poses, Grid):
-        grid = poses
-        P = robot.as_poses(grid.poses)
-    else:
-        P = robot.as_poses(poses)
-    W = _as_wrenches(robot, wrenches)
+    P, W, layout = prepare(robot, poses, wrenches, bounds)
     tasks = [_SagTask(robot, P[sl], W, backend, tol, max_iter, dict(options))
              for sl in chunk_slices(len(P), chunk_size)]
     parts = run_chunks(_sag_chunk, tasks, executor, progress=progress,
@@ -590,17 +584,11 @@ def sag_workspace(
     out = _merge(parts, ("margins", "margin", "crit", "feasible", "tensions", "status",
                          "lengths", "chords", "sag", "residual", "straight", "mstat",
                          "miters", "mresid"))
-    box = None
-    if bounds is not None:
-        box = (np.asarray(bounds[0], dtype=float), np.asarray(bounds[1], dtype=float))
-    elif grid is not None:
-        box = (np.array([a[0] for a in grid.axes]), np.array([a[-1] for a in grid.axes]))
     return SagWorkspaceResult(
         poses=P, feasible=out["feasible"], margin=out["margin"], tensions=out["tensions"],
         status=out["status"], margins=out["margins"], critical_wrench=out["crit"],
-        wrenches=W, grid_shape=grid.shape if grid is not None else None,
-        axes=grid.axes if grid is not None else None, bounds=box, robot=robot,
-        backend="coupled catenary", sag_correction=out["sag"], lengths=out["lengths"],
+        wrenches=W, robot=robot, backend="coupled catenary", **layout,
+        sag_correction=out["sag"], lengths=out["lengths"],
         straight_lengths=out["chords"], equilibrium_residual=out["residual"],
         straight_margin=out["straight"], margin_status=out["mstat"],
         margin_iterations=out["miters"], margin_residual=out["mresid"])

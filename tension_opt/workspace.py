@@ -863,6 +863,28 @@ def _merge(parts: Sequence[dict[str, Any]], keys: Sequence[str]) -> dict[str, ND
     return {k: np.concatenate([p[k] for p in parts]) for k in keys}
 
 
+def prepare(robot: CableRobot, poses: ArrayLike | Grid, wrenches: ArrayLike | None,
+            bounds: tuple[ArrayLike, ArrayLike] | None
+            ) -> tuple[NDArray, NDArray, dict[str, Any]]:
+    """Checked poses (N, n), wrenches (K, n) and the layout fields of a result.
+
+    The layout is ``grid_shape``, ``axes`` (from a :class:`Grid`) and ``bounds`` (the
+    sampled box: given, or the grid's extent), as keyword arguments of
+    :class:`WorkspaceResult`.
+    """
+    grid = poses if isinstance(poses, Grid) else None
+    P = robot.as_poses(poses.poses if isinstance(poses, Grid) else poses)
+    W = _as_wrenches(robot, wrenches)
+    box = None
+    if bounds is not None:
+        box = (np.asarray(bounds[0], dtype=float), np.asarray(bounds[1], dtype=float))
+    elif grid is not None:
+        box = (np.array([a[0] for a in grid.axes]), np.array([a[-1] for a in grid.axes]))
+    layout = {"grid_shape": grid.shape if grid is not None else None,
+              "axes": grid.axes if grid is not None else None, "bounds": box}
+    return P, W, layout
+
+
 def wrench_feasible_workspace(
     robot: CableRobot,
     poses: ArrayLike | Grid,
@@ -913,13 +935,7 @@ def wrench_feasible_workspace(
     WorkspaceResult
         ``feasible`` (N,), ``margin`` (N,) in N, min-sum ``tensions`` (N, m), ``status``.
     """
-    grid: Grid | None = None
-    if isinstance(poses, Grid):
-        grid = poses
-        P = robot.as_poses(grid.poses)
-    else:
-        P = robot.as_poses(poses)
-    W = _as_wrenches(robot, wrenches)
+    P, W, layout = prepare(robot, poses, wrenches, bounds)
     if not isinstance(backend, Backend) and backend not in ("auto", "closed_form"):
         get_backend(backend)  # fail early on an unknown name
     tasks = [_Task(robot, P[sl], W, backend, dict(options))
@@ -928,17 +944,10 @@ def wrench_feasible_workspace(
                        description="workspace")
     out = _merge(parts, ("margins", "margin", "crit", "feasible", "tensions", "status"))
     methods = sorted({p["method"] for p in parts if p["method"]})
-    box = None
-    if bounds is not None:
-        box = (np.asarray(bounds[0], dtype=float), np.asarray(bounds[1], dtype=float))
-    elif grid is not None:
-        box = (np.array([a[0] for a in grid.axes]), np.array([a[-1] for a in grid.axes]))
     return WorkspaceResult(
         poses=P, feasible=out["feasible"], margin=out["margin"], tensions=out["tensions"],
         status=out["status"], margins=out["margins"], critical_wrench=out["crit"],
-        wrenches=W, grid_shape=grid.shape if grid is not None else None,
-        axes=grid.axes if grid is not None else None, bounds=box, robot=robot,
-        backend="+".join(methods))
+        wrenches=W, robot=robot, backend="+".join(methods), **layout)
 
 
 # ----------------------------------------------------------------------------- plots
