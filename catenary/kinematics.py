@@ -300,7 +300,9 @@ def inverse_kinematics(
     initial_tensions : array_like, shape (N, m), optional
         Coupled model: platform-end tensions (N) to start from instead of the
         straight-line distribution, for the poses whose row is finite; such poses are
-        attempted even where the straight-line distribution is infeasible.
+        attempted even where the straight-line distribution is infeasible. Without it,
+        poses whose straight-line distribution is infeasible start from the coupled
+        capacity-margin search (sag can make them feasible).
     **options
         Passed to the backend.
 
@@ -342,8 +344,14 @@ def inverse_kinematics(
     N, m = geo.x.shape
     sol = tension_opt.distribute(robot, p, objective, backend, wrench=wrench, **options)
     ok = sol.success.copy()
+    start = None
     if initial_tensions is not None and model == "coupled" and w > 0.0:
         start = np.broadcast_to(np.asarray(initial_tensions, dtype=float), (N, m))
+    elif model == "coupled" and w > 0.0 and not ok.all():
+        # Sag can widen the workspace: where no straight-line tensions fit the bounds,
+        # the coupled capacity-margin search may still find catenaries in equilibrium.
+        start = _margin_start(robot, p, ~ok, wrench, backend, tol, max_iter, options)
+    if start is not None:
         given = np.isfinite(start).all(axis=1)
         sol.tensions = np.where(given[:, None], start, sol.tensions)
         ok |= given
@@ -403,6 +411,30 @@ def inverse_kinematics(
         model=model,
         solve_time=time.perf_counter() - t0,
     )
+
+
+def _margin_start(robot: CableRobot, poses: FloatArray, missing: NDArray[np.bool_],
+                  wrench: ArrayLike | None, backend: str | Backend, tol: float,
+                  max_iter: int, options: dict[str, Any]) -> FloatArray:
+    """Platform-end tensions of catenaries in equilibrium within the bounds, (N, m).
+
+    From the coupled capacity-margin search (:func:`catenary.workspace.coupled_margin`)
+    of the poses ``missing``; NaN rows where it finds none.
+    """
+    from .workspace import coupled_margin  # builds on this module; imported when needed
+
+    idx = np.flatnonzero(missing)
+    start = np.full((poses.shape[0], robot.m), np.nan)
+    wk = None
+    if wrench is not None:
+        wr = np.asarray(wrench, dtype=float)
+        wk = wr[idx] if wr.ndim == 2 else wr
+    margin, T_m, m_status, _, _ = coupled_margin(robot, poses[idx], wk, backend, tol=tol,
+                                                 max_iter=max_iter, **options)
+    slack = 1e-9 * np.nanmax(np.abs(T_m), axis=1, initial=0.0)
+    found = (m_status == "converged") & (margin >= -slack)
+    start[idx[found]] = T_m[found]
+    return start
 
 
 def _scp(

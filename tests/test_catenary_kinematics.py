@@ -108,6 +108,27 @@ def test_coupled_balances_the_load_on_cogiro(objective):
     assert (ik.tensions_platform >= robot.t_min - tol).all()
 
 
+def test_coupled_reaches_poses_only_sag_makes_feasible(thesis):
+    # Near the pond's edges and low down no straight-line tensions reach t_min = m g on
+    # every cable, but sagging cables (which pull the platform down) can. The coupled
+    # model must find these poses, as the coupled workspace does, not call them infeasible.
+    from catenary.workspace import sag_workspace
+
+    rng = np.random.default_rng(3)
+    poses = np.column_stack([rng.uniform(-44, 44, 60), rng.uniform(-29, 29, 60),
+                             rng.uniform(0.0, 1.5, 60)])
+    straight = to.distribute(thesis, poses, "min_sum")
+    ik = inverse_kinematics(thesis, poses, model="coupled")
+    ws = sag_workspace(thesis, poses)
+    gained = ik.success & ~straight.success
+    assert gained.sum() >= 5  # the sample does contain such poses
+    np.testing.assert_array_equal(ik.success, ws.feasible)
+    np.testing.assert_allclose(ik.tensions[ik.success], ws.tensions[ws.feasible], rtol=1e-6)
+    assert ik.equilibrium_residual[ik.success].max() < 1e-6 * thesis.weight
+    # t_min bounds the lowest tension along each cable, so it holds at the platform end.
+    assert ik.tensions_platform[gained].min() >= thesis.t_min[0] * (1 - 1e-9)
+
+
 def test_coupled_objective_matters(thesis):
     poses = _thesis_poses(thesis, 50, 3)
     a = inverse_kinematics(thesis, poses, model="coupled", objective="min_sum")

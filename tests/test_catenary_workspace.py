@@ -82,23 +82,25 @@ def test_coupled_equilibrium_and_bounds_hold_where_feasible(steel):
     assert 0.0 < np.nanmin(steel.sag_correction) and np.nanmax(steel.sag_correction) < 5.0
 
 
-def test_sag_widens_the_study_workspace_beyond_what_the_default_start_finds(steel):
+def test_sag_widens_the_study_workspace_beyond_the_straight_one(steel):
     # Poses where no straight-line tensions are within bounds, but catenaries are: long
     # cables that dip below the platform pull it down, so the others may pull harder.
     only_sag = steel.feasible & (steel.straight_margin < 0)
     assert only_sag.sum() >= 5
     assert np.all(steel.margin[only_sag] > 0)
-    # catenary.inverse_kinematics from its default start (the straight distribution)
-    # reports them infeasible; from the margin's tensions it finds the same solution.
+    # catenary.inverse_kinematics starts such poses from the margin search by itself,
+    # and from the margin's tensions given explicitly it finds the same solution.
     robot = steel.robot
     p = steel.poses[only_sag]
+    assert not to.distribute(robot, p, "min_sum").success.any()
     plain = catenary.inverse_kinematics(robot, p, model="coupled")
-    assert not plain.success.any()
+    assert plain.success.all()
     _, T_m, st, _, _ = cws.coupled_margin(robot, p)
     assert (st == "converged").all()
     started = catenary.inverse_kinematics(robot, p, model="coupled", initial_tensions=T_m)
     assert started.success.all()
     np.testing.assert_allclose(started.tensions, steel.tensions[only_sag], rtol=1e-8)
+    np.testing.assert_allclose(plain.tensions, steel.tensions[only_sag], rtol=1e-8)
 
 
 def test_coupled_margin_is_the_optimum_of_the_nonlinear_problem(steel):
