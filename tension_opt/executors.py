@@ -175,8 +175,12 @@ class DaskExecutor(Executor):
         return max(1, sum(int(w.get("nthreads", 1)) for w in info["workers"].values()))
 
     def map(self, fn: Callable[[T], R], chunks: Sequence[T]) -> Iterator[R]:
-        # pure=False: identical chunks (e.g. repeated timings) must each run.
-        futures = self.client.map(fn, list(chunks), pure=False)
+        # Chunks go to the workers as data, not inside the task graph (large chunks of
+        # poses would bloat it); pure=False: identical chunks must each run.
+        if not len(chunks):
+            return iter(())
+        data = self.client.scatter(list(chunks))
+        futures = self.client.map(fn, data, pure=False)
         return (f.result() for f in futures)
 
     def close(self) -> None:
