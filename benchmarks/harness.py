@@ -877,8 +877,7 @@ def _run_on(cells: Sequence[Cell], store: ResultsStore, redo: bool, time_limit: 
                     message = f"worker failed: {type(exc).__name__}: {_short(exc)}"
                     chunk_results = [CellResult({**_base_row(c), "status": "error",
                                                  "message": message}) for c in chunk]
-                    # The map stops at its first error: send the rest again.
-                    results = iter(runner.map(run_chunk, payloads[index + 1:]))
+                    # The executor's results go on with the next chunk after a failure.
                 for cell, result in zip(chunk, chunk_results, strict=True):
                     _store(store, cell, result, keep)
                 index += 1

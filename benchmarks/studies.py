@@ -745,26 +745,31 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     Prints a summary per (sweep point, pose) and writes the full table with ``--out``.
     """
-    args = _parser().parse_args(argv)
+    parser = _parser()
+    args = parser.parse_args(argv)
     raw = args.materials if args.materials is not None else args.values
+    if args.materials is not None and args.parameter != "material":
+        parser.error(f"--materials goes with the 'material' sweep, not {args.parameter!r}")
     values: list[Any] | None
-    if raw is None or args.parameter == "material":
-        values = raw
-    else:
-        values = [float(v) for v in raw]
+    try:
+        values = raw if raw is None or args.parameter == "material" else [float(v) for v in raw]
+    except ValueError:
+        parser.error(f"--values takes numbers; got {raw}")
     overrides: dict[str, Any] = {}
     for item in args.set:
         key, sep, text = item.partition("=")
+        try:
+            overrides[key] = float(text)
+        except ValueError:
+            sep = ""
         if not sep:
-            raise SystemExit(f"--set takes KEY=VALUE; got {item!r}")
-        overrides[key] = float(text)
+            parser.error(f"--set takes KEY=NUMBER; got {item!r}")
     try:
         table = sweep(args.parameter, values, args.pose, material=args.material,
                       elastic=args.elastic, models=args.models, executor=args.executor,
                       chunk_size=args.chunk_size, progress=not args.no_progress, **overrides)
     except ValueError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+        parser.error(str(exc))
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         table.to_csv(args.out, index=False)

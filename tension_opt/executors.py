@@ -25,6 +25,7 @@ import this package.
 
 from __future__ import annotations
 
+import functools
 import os
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Sequence
@@ -69,7 +70,7 @@ class Executor(ABC):
         """Apply ``fn`` to every chunk; yield the results in the order of ``chunks``.
 
         An exception raised by ``fn`` on a chunk is raised here when that chunk's
-        result is reached.
+        result is reached; iterating further gives the following chunks' results.
         """
 
     def close(self) -> None:
@@ -86,6 +87,28 @@ class Executor(ABC):
         return f"{type(self).__name__}(workers={self.workers})"
 
 
+class _Ordered(Iterator[R]):
+    """Results in chunk order, each fetched when reached.
+
+    Unlike a generator it goes on after a chunk raised: the next item is the next
+    chunk's result, so a caller can record a failure and carry on.
+    """
+
+    def __init__(self, fetchers: Sequence[Callable[[], R]]) -> None:
+        self._fetchers = fetchers
+        self._next = 0
+
+    def __iter__(self) -> _Ordered[R]:
+        return self
+
+    def __next__(self) -> R:
+        if self._next >= len(self._fetchers):
+            raise StopIteration
+        fetch = self._fetchers[self._next]
+        self._next += 1
+        return fetch()
+
+
 class InProcessExecutor(Executor):
     """Runs the chunks one after the other in this process."""
 
@@ -96,7 +119,7 @@ class InProcessExecutor(Executor):
         return 1
 
     def map(self, fn: Callable[[T], R], chunks: Sequence[T]) -> Iterator[R]:
-        return (fn(chunk) for chunk in chunks)
+        return _Ordered([functools.partial(fn, chunk) for chunk in chunks])
 
 
 class ProcessPoolExecutor(Executor):
@@ -125,7 +148,7 @@ class ProcessPoolExecutor(Executor):
 
     def map(self, fn: Callable[[T], R], chunks: Sequence[T]) -> Iterator[R]:
         futures = [self._pool.submit(fn, chunk) for chunk in chunks]
-        return (f.result() for f in futures)
+        return _Ordered([f.result for f in futures])
 
     def close(self) -> None:
         self._pool.shutdown(wait=True, cancel_futures=True)
@@ -181,7 +204,7 @@ class DaskExecutor(Executor):
             return iter(())
         data = self.client.scatter(list(chunks))
         futures = self.client.map(fn, data, pure=False)
-        return (f.result() for f in futures)
+        return _Ordered([f.result for f in futures])
 
     def close(self) -> None:
         if self._own:
@@ -208,7 +231,12 @@ def get_executor(spec: str | Executor | Any | None = None) -> Executor:
     if isinstance(spec, Executor):
         return spec
     if not isinstance(spec, str):
-        return DaskExecutor(spec)  # a dask.distributed.Client
+        if _is_dask_client(spec):
+            return DaskExecutor(spec)
+        raise InvalidInputError(
+            "executor must be None, a name ('inprocess', 'processes[:N]', 'dask[:ADDRESS]'), "
+            f"an Executor or a dask.distributed.Client; got {type(spec).__name__}"
+        )
     kind, _, arg = spec.partition(":")
     if kind in ("inprocess", "serial") and not arg:
         return InProcessExecutor()
@@ -223,6 +251,14 @@ def get_executor(spec: str | Executor | Any | None = None) -> Executor:
     raise InvalidInputError(
         f"unknown executor {spec!r}; use 'inprocess', 'processes[:N]' or 'dask[:ADDRESS]'"
     )
+
+
+def _is_dask_client(obj: object) -> bool:
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        return False
+    return isinstance(obj, Client)
 
 
 def chunk_slices(count: int, chunk_size: int) -> list[slice]:

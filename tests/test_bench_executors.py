@@ -161,6 +161,7 @@ def test_failed_chunk_becomes_error_rows_and_the_run_goes_on(
                         executor="inprocess", chunk_size=2)
     assert list(frame["status"]) == ["error"] * 2 + ["ok"] * 4
     assert frame["message"].iloc[0] == "worker failed: RuntimeError: worker lost"
+    assert len(calls) == 3  # every chunk ran once: the failure did not resend the rest
 
 
 @pytest.fixture(scope="module")

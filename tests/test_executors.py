@@ -49,6 +49,22 @@ def test_a_failing_chunk_raises_in_the_caller() -> None:
         run_chunks(_fail_on_third, chunk_slices(50, 10), "processes:2")
 
 
+@pytest.mark.parametrize("spec", ["inprocess", "processes:2"])
+def test_results_go_on_after_a_failing_chunk(spec: str) -> None:
+    # A caller can record a failed chunk and carry on, without sending the rest again.
+    with get_executor(spec) as runner:
+        results = runner.map(_fail_on_third, chunk_slices(50, 10))
+        outcomes = []
+        for _ in range(5):
+            try:
+                outcomes.append(next(results))
+            except RuntimeError as exc:
+                outcomes.append(str(exc))
+        with pytest.raises(StopIteration):
+            next(results)
+    assert outcomes == [0, 10, "chunk 3 failed", 30, 40]
+
+
 def test_executor_names() -> None:
     assert isinstance(get_executor(None), InProcessExecutor)
     assert isinstance(get_executor("serial"), InProcessExecutor)
@@ -56,7 +72,7 @@ def test_executor_names() -> None:
         assert isinstance(pool, ProcessPoolExecutor) and pool.workers == 3
     given = InProcessExecutor()
     assert get_executor(given) is given
-    for bad in ("threads", "processes:two", "processes:0", "inprocess:2"):
+    for bad in ("threads", "processes:two", "processes:0", "inprocess:2", 2, object()):
         with pytest.raises(InvalidInputError):
             get_executor(bad)
 

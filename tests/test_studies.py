@@ -305,5 +305,13 @@ def test_summary_and_command_line(tmp_path, capsys):
     summary = studies.summarize(sweep("mass", [200.0, 300.0], poses=POSES))
     assert len(summary) == 4
     assert (summary["sum_T_pinv"] >= summary["sum_T_lp"] - 1e-6).all()
-    assert studies.main(["diameter", "--values", "-0.01", "--no-progress"]) == 2
-    assert "cable_diameter must be a positive" in capsys.readouterr().err
+    for argv, message in [
+        (["diameter", "--values", "-0.01"], "cable_diameter must be a positive"),
+        (["mass", "--values", "abc"], "--values takes numbers"),
+        (["mass", "--set", "mass=abc"], "--set takes KEY=NUMBER"),
+        (["mass", "--materials", "steel"], "--materials goes with the 'material' sweep"),
+    ]:
+        with pytest.raises(SystemExit) as stop:
+            studies.main([*argv, "--no-progress"])
+        assert stop.value.code == 2
+        assert message in capsys.readouterr().err
