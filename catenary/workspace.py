@@ -72,6 +72,7 @@ from tension_opt.workspace import (
     _margins,
     _merge,
     margin_solve,
+    on_drawing_point,
     prepare,
 )
 
@@ -106,7 +107,7 @@ _FLOOR_GAP = 1e-3
 _KINK_TOL = 1e-7
 
 
-@dataclass(eq=False)
+@dataclass(eq=False, repr=False)  # the parent's one-line repr, not every array
 class SagWorkspaceResult(WorkspaceResult):
     """:class:`~tension_opt.workspace.WorkspaceResult` of the coupled sag model.
 
@@ -118,7 +119,7 @@ class SagWorkspaceResult(WorkspaceResult):
     lengths : ndarray, shape (N, m)
         Unstretched cable lengths (m) of that solution.
     straight_lengths : ndarray, shape (N, m)
-        Straight-line lengths (m).
+        Straight-line lengths (m); NaN for a pose on a drawing point.
     equilibrium_residual : ndarray, shape (N,)
         Wrench left on the platform by the catenary end forces of the minimum-sum
         solution (N, N m).
@@ -460,8 +461,33 @@ class _SagTask:
 
 
 def _sag_chunk(task: _SagTask) -> dict[str, Any]:
-    """Coupled margins, feasibility, tensions and sag of one chunk of poses."""
+    """Coupled margins, feasibility, tensions and sag of one chunk of poses.
+
+    Poses on a drawing point (:func:`~tension_opt.workspace.on_drawing_point`) are not
+    computed: infeasible, margins ``-inf`` (margin status ``"singular"``), NaN tensions,
+    lengths and sag, status ``INFEASIBLE``; so are no poses at all.
+    """
     robot, P, W = task.robot, task.poses, task.wrenches
+    N, K, m = P.shape[0], W.shape[0], robot.m
+    out: dict[str, Any] = {
+        "margins": np.full((N, K), -np.inf), "margin": np.full(N, -np.inf),
+        "crit": np.zeros(N, dtype=np.intp), "feasible": np.zeros(N, dtype=bool),
+        "tensions": np.full((N, m), np.nan), "status": status_array(N, Status.INFEASIBLE),
+        "lengths": np.full((N, m), np.nan), "chords": np.full((N, m), np.nan),
+        "sag": np.full(N, np.nan), "residual": np.full(N, np.nan),
+        "straight": np.full(N, -np.inf), "mstat": np.full(N, "singular", dtype="<U15"),
+        "miters": np.zeros(N, np.int64), "mresid": np.full(N, np.nan)}
+    ok = ~on_drawing_point(robot, P) if N else np.zeros(0, dtype=bool)
+    if ok.any():
+        for key, value in _sag_chunk_poses(task, P[ok]).items():
+            out[key][ok] = value
+    return out
+
+
+def _sag_chunk_poses(task: _SagTask, P: NDArray) -> dict[str, Any]:
+    """:func:`_sag_chunk` of poses ``P`` (N, n) that keep every cable off its drawing
+    point."""
+    robot, W = task.robot, task.wrenches
     N, K, m = P.shape[0], W.shape[0], robot.m
     margins = np.full((N, K), np.nan)
     straight = np.full((N, K), np.nan)
@@ -562,7 +588,9 @@ def sag_workspace(
     executor, chunk_size, progress
         As :func:`tension_opt.workspace.wrench_feasible_workspace`.
     bounds : (array_like, array_like), optional
-        The sampled box, for :meth:`~tension_opt.workspace.WorkspaceResult.volume`.
+        The sampled box, shape (n,) each, finite, ``lower <= upper`` (m, rad), for
+        :meth:`~tension_opt.workspace.WorkspaceResult.volume`; default for a
+        :class:`~tension_opt.workspace.Grid`: its box.
     tol, max_iter
         Convergence of the coupled iterations (relative change of the tensions) and
         their iteration limit.
@@ -574,11 +602,17 @@ def sag_workspace(
     SagWorkspaceResult
         ``feasible``, coupled ``margin`` (N), min-sum coupled ``tensions`` (N, m),
         ``sag_correction`` (m) per pose, and the straight-line margin for comparison.
+        A pose that puts a cable on its drawing point (zero length) does not stop the
+        batch: it is reported infeasible with margins ``-inf`` (margin status
+        ``"singular"``), NaN tensions, lengths and sag, status ``INFEASIBLE``. No poses
+        (N = 0) give an empty result.
     """
     _cable_data(robot)  # fail early without cable properties
     P, W, layout = prepare(robot, poses, wrenches, bounds)
+    # No poses: one empty chunk, so that the result has the right (empty) shapes.
     tasks = [_SagTask(robot, P[sl], W, backend, tol, max_iter, dict(options))
-             for sl in chunk_slices(len(P), chunk_size)]
+             for sl in chunk_slices(len(P), chunk_size)] or [
+                 _SagTask(robot, P, W, backend, tol, max_iter, dict(options))]
     parts = run_chunks(_sag_chunk, tasks, executor, progress=progress,
                        description="sag workspace")
     out = _merge(parts, ("margins", "margin", "crit", "feasible", "tensions", "status",

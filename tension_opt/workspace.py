@@ -59,9 +59,12 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = [
     "FEAS_TOL",
+    "MAX_GRID_POINTS",
     "Grid",
     "WorkspaceResult",
     "capacity_margin",
+    "cell_widths",
+    "on_drawing_point",
     "plot_slice",
     "plot_workspace_3d",
     "sample_poses",
@@ -109,11 +112,70 @@ class Grid(NamedTuple):
         Points along each pose coordinate (1 for a fixed coordinate).
     axes : tuple of ndarray
         The points along each coordinate (m or rad).
+    lower, upper : ndarray, shape (n,), optional
+        The box the grid covers (m, rad). Each point stands for the cell between the
+        midpoints to its neighbours, the outer cells ending at the box (see
+        :func:`cell_widths`). None for a grid built without a box: its outer cells then
+        reach half a gap beyond the outer points.
     """
 
     poses: NDArray
     shape: tuple[int, ...]
     axes: tuple[NDArray, ...]
+    lower: NDArray | None = None
+    upper: NDArray | None = None
+
+
+#: Largest number of points :func:`workspace_grid` builds.
+MAX_GRID_POINTS = 50_000_000
+
+
+def cell_widths(axis: ArrayLike, lower: float | None = None,
+                upper: float | None = None) -> NDArray:
+    """Width of the cell of each point along one grid coordinate (m, rad).
+
+    The cells are bounded by the midpoints between neighbouring points and, at the
+    ends, by ``lower`` and ``upper``: equal cells ``width / k`` for a ``spacing`` grid
+    of :func:`workspace_grid`, half cells at both ends for a ``counts`` grid (whose end
+    points lie on the box), the whole width for a single point. Without a box the
+    outer cells reach half a gap beyond the outer points (0 for a single point).
+
+    Parameters
+    ----------
+    axis : array_like, shape (k,)
+        Increasing points along the coordinate.
+    lower, upper : float, optional
+        Ends of the coordinate's range, ``lower <= axis[0]``, ``axis[-1] <= upper``.
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        Cell widths; they sum to ``upper - lower`` when a box is given.
+    """
+    a = np.asarray(axis, dtype=float)
+    mid = 0.5 * (a[1:] + a[:-1])
+    if lower is None or upper is None:
+        gaps = np.diff(a)
+        lo = a[0] - 0.5 * gaps[0] if len(gaps) else a[0]
+        hi = a[-1] + 0.5 * gaps[-1] if len(gaps) else a[-1]
+    else:
+        lo, hi = float(lower), float(upper)
+    edges = np.concatenate([[lo], mid, [hi]])
+    return np.diff(edges)
+
+
+def _per_axis(value: ArrayLike, n: int, name: str) -> NDArray:
+    """``spacing`` / ``counts`` as a float vector of length ``n`` (a scalar is repeated)."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"{name} must be a number or {n} numbers; got {value!r}") from None
+    if arr.ndim == 0:
+        return np.full(n, float(arr))
+    if arr.shape != (n,):
+        raise InvalidInputError(f"{name} must be a number or have shape ({n},) like lower and "
+                                f"upper; got shape {arr.shape}")
+    return arr
 
 
 def workspace_grid(lower: ArrayLike, upper: ArrayLike, spacing: ArrayLike | None = None,
@@ -123,22 +185,31 @@ def workspace_grid(lower: ArrayLike, upper: ArrayLike, spacing: ArrayLike | None
     Parameters
     ----------
     lower, upper : array_like, shape (n,)
-        Corners of the box (m, rad). A coordinate with ``lower == upper`` is fixed.
+        Corners of the box (m, rad), finite. A coordinate with ``lower == upper`` is
+        fixed.
     spacing : float or array_like, shape (n,), optional
-        Largest distance between neighbouring points (m, rad). Each coordinate's range
-        is cut into ``k = ceil(width / spacing)`` equal cells of size ``width / k``
-        (exactly ``spacing`` when it divides the width) and the points are the cell
-        centres, so the cells tile the box and :meth:`WorkspaceResult.volume` counts
-        whole cells.
+        Largest distance between neighbouring points (m, rad), > 0. Each coordinate's
+        range is cut into ``k = ceil(width / spacing)`` equal cells of size
+        ``width / k`` (exactly ``spacing`` when it divides the width) and the points are
+        the cell centres, so the cells tile the box.
     counts : int or array_like of int, shape (n,), optional
-        Points along each coordinate instead of ``spacing``, from ``lower`` to ``upper``
-        inclusive (``numpy.linspace``; the cells of the end points then reach half a
-        cell beyond the box). Give exactly one of ``spacing`` and ``counts``.
+        Points along each coordinate instead of ``spacing``, whole numbers >= 1 (1 for a
+        fixed coordinate), from ``lower`` to ``upper`` inclusive (``numpy.linspace``;
+        the end points then stand for half cells, so the cells again tile the box). Give
+        exactly one of ``spacing`` and ``counts``.
 
     Returns
     -------
     Grid
-        ``poses`` (N, n), ``shape`` and ``axes``.
+        ``poses`` (N, n), ``shape``, ``axes`` and the box ``lower``, ``upper``;
+        :meth:`WorkspaceResult.volume` weighs each point by its cell
+        (:func:`cell_widths`).
+
+    Raises
+    ------
+    InvalidInputError
+        On a bad box, ``spacing`` or ``counts`` (wrong length, not positive, counts not
+        whole), or a grid of more than ``MAX_GRID_POINTS`` (5e7) points.
     """
     lo = np.atleast_1d(np.asarray(lower, dtype=float))
     hi = np.atleast_1d(np.asarray(upper, dtype=float))
@@ -149,29 +220,39 @@ def workspace_grid(lower: ArrayLike, upper: ArrayLike, spacing: ArrayLike | None
         raise InvalidInputError(f"the box needs finite lower <= upper; got {lo} and {hi}")
     if (spacing is None) == (counts is None):
         raise InvalidInputError("give exactly one of spacing and counts")
-    axes: list[NDArray] = []
+    width = hi - lo
     if spacing is not None:
-        step = np.broadcast_to(np.asarray(spacing, dtype=float), lo.shape)
-        width = hi - lo
+        step = _per_axis(spacing, lo.size, "spacing")
         if not np.isfinite(step).all() or ((step <= 0) & (width > 0)).any():
-            raise InvalidInputError(f"spacing must be positive; got {spacing}")
-        for a, w, h in zip(lo, width, step, strict=True):
-            if w == 0:
-                axes.append(np.array([a]))
-                continue
-            k = max(1, int(np.ceil(w / h * (1 - 1e-12))))
-            axes.append(a + (w / k) * (np.arange(k) + 0.5))
-    else:
-        num = np.broadcast_to(np.asarray(counts), lo.shape)
-        if (num < 1).any() or not np.all(np.equal(np.mod(num, 1), 0)):
+            raise InvalidInputError(f"spacing must be positive and finite; got {spacing}")
+        with np.errstate(divide="ignore", invalid="ignore"):
+            k_float = np.where(width > 0, np.ceil(width / np.where(step > 0, step, 1.0)
+                                                  * (1 - 1e-12)), 1.0)
+        k_float = np.maximum(k_float, 1.0)
+    elif counts is not None:
+        k_float = _per_axis(counts, lo.size, "counts")
+        if (not np.isfinite(k_float).all() or (k_float < 1).any()
+                or not np.all(np.mod(k_float, 1) == 0)):
             raise InvalidInputError(f"counts must be positive whole numbers; got {counts!r}")
-        for a, b, k in zip(lo, hi, num, strict=True):
-            if int(k) > 1 and a == b:
-                raise InvalidInputError("a fixed coordinate (lower == upper) takes count 1")
-            axes.append(np.linspace(a, b, int(k)))
+        if ((k_float > 1) & (width == 0)).any():
+            raise InvalidInputError("a fixed coordinate (lower == upper) takes count 1")
+    total = float(np.prod(k_float))
+    if not total <= MAX_GRID_POINTS:
+        shape = "x".join(f"{k:.0f}" for k in k_float)
+        raise InvalidInputError(f"the grid would have {total:.3g} points ({shape}), more than "
+                                f"{MAX_GRID_POINTS:.0e}; use a coarser spacing, fewer counts "
+                                f"or sample_poses")
+    axes: list[NDArray] = []
+    for a, b, w, k in zip(lo, hi, width, k_float.astype(int), strict=True):
+        if w == 0:
+            axes.append(np.array([a]))
+        elif spacing is not None:
+            axes.append(a + (w / k) * (np.arange(k) + 0.5))
+        else:
+            axes.append(np.linspace(a, b, k))
     mesh = np.meshgrid(*axes, indexing="ij")
     poses = np.stack([g.ravel() for g in mesh], axis=1)
-    return Grid(poses, tuple(len(a) for a in axes), tuple(axes))
+    return Grid(poses, tuple(len(a) for a in axes), tuple(axes), lo.copy(), hi.copy())
 
 
 def sample_poses(lower: ArrayLike, upper: ArrayLike, count: int,
@@ -181,9 +262,9 @@ def sample_poses(lower: ArrayLike, upper: ArrayLike, count: int,
     Parameters
     ----------
     lower, upper : array_like, shape (n,)
-        Corners of the box (m, rad).
+        Corners of the box (m, rad), finite.
     count : int
-        Number of poses N.
+        Number of poses N >= 1 (a whole number).
     seed : int or numpy.random.Generator, optional
 
     Returns
@@ -192,8 +273,18 @@ def sample_poses(lower: ArrayLike, upper: ArrayLike, count: int,
     """
     lo = np.atleast_1d(np.asarray(lower, dtype=float))
     hi = np.atleast_1d(np.asarray(upper, dtype=float))
-    if lo.shape != hi.shape or (hi < lo).any() or count < 1:
-        raise InvalidInputError("sample_poses needs lower <= upper of one length and count >= 1")
+    if lo.shape != hi.shape or lo.ndim != 1:
+        raise InvalidInputError(f"lower and upper must be vectors of one length; got "
+                                f"{lo.shape} and {hi.shape}")
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all()) or (hi < lo).any():
+        raise InvalidInputError(f"the box needs finite lower <= upper; got {lo} and {hi}")
+    try:
+        whole = (not isinstance(count, (bool, np.bool_)) and float(count).is_integer()
+                 and count >= 1)
+    except (TypeError, ValueError, OverflowError):
+        whole = False
+    if not whole:
+        raise InvalidInputError(f"count must be a whole number >= 1; got {count!r}")
     rng = np.random.default_rng(seed)
     return lo + (hi - lo) * rng.random((int(count), lo.size))
 
@@ -229,7 +320,8 @@ class WorkspaceResult:
     axes : tuple of ndarray, optional
         Grid points along each pose coordinate.
     bounds : tuple of ndarray, optional
-        ``(lower, upper)`` of the sampled box, shape (n,) each, for :meth:`volume`.
+        ``(lower, upper)`` of the sampled box or of the grid's box, shape (n,) each
+        (m, rad), for :meth:`volume`.
     robot : CableRobot, optional
         The robot (anchors are drawn by the plots).
     backend : str
@@ -309,11 +401,14 @@ class WorkspaceResult:
     def volume(self) -> float:
         """Measure of the feasible positions: m^3 (m^2 for planar robots).
 
-        On a grid: feasible points times the cell ``dx dy dz`` (each point stands for the
-        cell centred on it, see :func:`workspace_grid`); the grid must vary along every
-        position coordinate and keep the orientation fixed. For samples: the feasible
-        fraction times the volume of the sampled box (``bounds``; else the bounding box
-        of the poses) over the position coordinates.
+        On a grid: the sum of the cells ``dx dy dz`` of the feasible points, each point
+        standing for its cell in the grid's box (``bounds``; see :func:`cell_widths`:
+        equal cells on a ``spacing`` grid, half cells at the ends of a ``counts``
+        grid), so a feasible box gives its own volume either way. The grid must keep
+        the orientation fixed and its box must extend along every position coordinate
+        (one point across a nonzero width is fine). For samples: the feasible fraction
+        times the volume of the sampled box (``bounds``; else the bounding box of the
+        poses) over the position coordinates.
         """
         kind = self.robot.kind if self.robot is not None else "point3"
         pos = _POSITIONS[kind]
@@ -322,11 +417,20 @@ class WorkspaceResult:
             if any(self.grid_shape[i] > 1 for i in others):
                 raise InvalidInputError("volume() needs a grid of fixed orientation; use "
                                         "fraction() for a grid over angles")
-            if any(self.grid_shape[i] < 2 for i in pos):
-                raise InvalidInputError("volume() needs at least 2 grid points along every "
-                                        "position coordinate")
-            cell = float(np.prod([self.axes[i][1] - self.axes[i][0] for i in pos]))
-            return float(np.count_nonzero(self.feasible)) * cell
+            cells = np.ones(self.grid_shape)
+            for i in pos:
+                if self.bounds is not None:
+                    w = cell_widths(self.axes[i], self.bounds[0][i], self.bounds[1][i])
+                else:
+                    w = cell_widths(self.axes[i])
+                if not (w > 0).all():
+                    raise InvalidInputError(
+                        f"volume() needs a grid whose box extends along every position "
+                        f"coordinate; {self.coordinate_names[i]} is fixed")
+                shape = [1] * len(self.grid_shape)
+                shape[i] = len(w)
+                cells = cells * w.reshape(shape)
+            return float(cells.ravel()[np.asarray(self.feasible, dtype=bool)].sum())
         if self.bounds is not None:
             lo, hi = self.bounds
         else:
@@ -823,9 +927,58 @@ class _Task:
     options: dict[str, Any]
 
 
+def on_drawing_point(robot: CableRobot, poses: NDArray) -> NDArray:
+    """Poses that put some cable on its drawing point (zero length), shape (N,) of bool.
+
+    The same test as the robot's own (:meth:`CableRobot.structure_matrices` raises
+    there): a cable shorter than ``1e-12`` times the largest anchor coordinate (at
+    least 1 m). Such a pose has no cable direction, so the workspace functions report
+    it infeasible instead of computing it.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    poses : ndarray, shape (N, n)
+        Validated poses (m, rad).
+    """
+    position, R = robot.frames(poses)
+    if robot.kind in ("point3", "planar_point2"):
+        arm = np.broadcast_to(robot.attachments, (len(poses), *robot.attachments.shape))
+    else:
+        arm = np.einsum("nij,mj->nmi", R, robot.attachments)
+    vec = robot.anchors[None] - (position[:, None, :] + arm)
+    lengths = np.sqrt(np.einsum("nmi,nmi->nm", vec, vec))
+    scale = np.maximum(1.0, np.abs(robot.anchors).max())
+    return np.asarray((lengths <= 1e-12 * scale).any(axis=1), dtype=bool)
+
+
 def _chunk(task: _Task) -> dict[str, Any]:
-    """Margins, feasibility and minimum-sum tensions of one chunk of poses."""
+    """Margins, feasibility and minimum-sum tensions of one chunk of poses.
+
+    Poses on a drawing point (:func:`on_drawing_point`) are not computed: infeasible,
+    margin ``-inf``, NaN tensions, status ``INFEASIBLE``; so are no poses at all.
+    """
     robot, P, W = task.robot, task.poses, task.wrenches
+    N, K = P.shape[0], W.shape[0]
+    out: dict[str, Any] = {
+        "margins": np.full((N, K), -np.inf), "margin": np.full(N, -np.inf),
+        "crit": np.zeros(N, dtype=np.intp), "feasible": np.zeros(N, dtype=bool),
+        "tensions": np.full((N, robot.m), np.nan), "status": status_array(N, Status.INFEASIBLE),
+        "method": ""}
+    ok = ~on_drawing_point(robot, P) if N else np.zeros(0, dtype=bool)
+    if ok.any():
+        part = _chunk_poses(task, P[ok])
+        for key, value in part.items():
+            if key == "method":
+                out[key] = value
+            else:
+                out[key][ok] = value
+    return out
+
+
+def _chunk_poses(task: _Task, P: NDArray) -> dict[str, Any]:
+    """:func:`_chunk` of poses ``P`` (N, n) that keep every cable off its drawing point."""
+    robot, W = task.robot, task.wrenches
     N, K = P.shape[0], W.shape[0]
     margins = np.empty((N, K))
     typical = np.empty((N, K))
@@ -863,13 +1016,33 @@ def _merge(parts: Sequence[dict[str, Any]], keys: Sequence[str]) -> dict[str, ND
     return {k: np.concatenate([p[k] for p in parts]) for k in keys}
 
 
+def _check_bounds(bounds: Any, n: int) -> tuple[NDArray, NDArray]:
+    """``bounds`` as two finite vectors of shape (n,) with ``lower <= upper``."""
+    try:
+        lo_raw, hi_raw = bounds
+        lo, hi = np.asarray(lo_raw, dtype=float), np.asarray(hi_raw, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"bounds must be a pair (lower, upper) of shape ({n},) "
+                                f"each; got {bounds!r}") from None
+    if lo.shape != (n,) or hi.shape != (n,):
+        raise InvalidInputError(f"bounds must be (lower, upper) of shape ({n},) each, like "
+                                f"the poses; got {lo.shape} and {hi.shape}")
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
+        raise InvalidInputError(f"bounds must be finite; got {lo} and {hi}")
+    if (hi < lo).any():
+        raise InvalidInputError(f"bounds need lower <= upper; got {lo} and {hi}")
+    return lo, hi
+
+
 def prepare(robot: CableRobot, poses: ArrayLike | Grid, wrenches: ArrayLike | None,
             bounds: tuple[ArrayLike, ArrayLike] | None
             ) -> tuple[NDArray, NDArray, dict[str, Any]]:
     """Checked poses (N, n), wrenches (K, n) and the layout fields of a result.
 
-    The layout is ``grid_shape``, ``axes`` (from a :class:`Grid`) and ``bounds`` (the
-    sampled box: given, or the grid's extent), as keyword arguments of
+    The layout is ``grid_shape``, ``axes`` (from a :class:`Grid`) and ``bounds``: as
+    given (checked: shape (n,) each, finite, ``lower <= upper``, around the grid's
+    points), else the grid's box (for a :class:`Grid` without one, its outer cells
+    reaching half a gap beyond the outer points); as keyword arguments of
     :class:`WorkspaceResult`.
     """
     grid = poses if isinstance(poses, Grid) else None
@@ -877,9 +1050,17 @@ def prepare(robot: CableRobot, poses: ArrayLike | Grid, wrenches: ArrayLike | No
     W = _as_wrenches(robot, wrenches)
     box = None
     if bounds is not None:
-        box = (np.asarray(bounds[0], dtype=float), np.asarray(bounds[1], dtype=float))
+        box = _check_bounds(bounds, robot.dof)
+        if grid is not None and any(a[0] < box[0][i] or a[-1] > box[1][i]
+                                    for i, a in enumerate(grid.axes)):
+            raise InvalidInputError("bounds must contain the grid's points")
+    elif grid is not None and grid.lower is not None and grid.upper is not None:
+        box = (np.asarray(grid.lower, dtype=float), np.asarray(grid.upper, dtype=float))
     elif grid is not None:
-        box = (np.array([a[0] for a in grid.axes]), np.array([a[-1] for a in grid.axes]))
+        box = (np.array([a[0] - 0.5 * (a[1] - a[0]) if len(a) > 1 else a[0]
+                         for a in grid.axes]),
+               np.array([a[-1] + 0.5 * (a[-1] - a[-2]) if len(a) > 1 else a[-1]
+                         for a in grid.axes]))
     layout = {"grid_shape": grid.shape if grid is not None else None,
               "axes": grid.axes if grid is not None else None, "bounds": box}
     return P, W, layout
@@ -925,8 +1106,9 @@ def wrench_feasible_workspace(
     progress : bool
         Show a progress bar over the chunks.
     bounds : (array_like, array_like), optional
-        The box the poses were sampled from, shape (n,) each, for
-        :meth:`WorkspaceResult.volume` of samples.
+        The box the poses were sampled from, shape (n,) each, finite, ``lower <=
+        upper`` (m, rad), for :meth:`WorkspaceResult.volume` of samples. Default for a
+        :class:`Grid`: its box.
     **options
         Passed to the LP backend and to :func:`tension_opt.distribute`.
 
@@ -934,12 +1116,23 @@ def wrench_feasible_workspace(
     -------
     WorkspaceResult
         ``feasible`` (N,), ``margin`` (N,) in N, min-sum ``tensions`` (N, m), ``status``.
+        A pose that puts a cable on its drawing point (zero length,
+        :func:`on_drawing_point`) does not stop the batch: it is reported infeasible
+        with margin ``-inf``, NaN tensions and status ``INFEASIBLE``. No poses (N = 0)
+        give an empty result.
+
+    Raises
+    ------
+    InvalidInputError
+        On bad poses, wrenches, bounds or backend.
     """
     P, W, layout = prepare(robot, poses, wrenches, bounds)
     if not isinstance(backend, Backend) and backend not in ("auto", "closed_form"):
         get_backend(backend)  # fail early on an unknown name
+    # No poses: one empty chunk, so that the result has the right (empty) shapes.
     tasks = [_Task(robot, P[sl], W, backend, dict(options))
-             for sl in chunk_slices(len(P), chunk_size)]
+             for sl in chunk_slices(len(P), chunk_size)] or [
+                 _Task(robot, P, W, backend, dict(options))]
     parts = run_chunks(_chunk, tasks, executor, progress=progress,
                        description="workspace")
     out = _merge(parts, ("margins", "margin", "crit", "feasible", "tensions", "status"))
@@ -962,8 +1155,11 @@ def plot_slice(result: WorkspaceResult, z: float | None = None, quantity: str = 
         From a :class:`Grid`.
     z : float, optional
         Height of the x-y slice (m); the nearest grid layer is drawn (default: the
-        middle one). Planar robots draw their own plane (x-y, or x-z for
-        ``planar_point2``) and ignore it.
+        middle one). The plotted plane is spanned by the first two position coordinates
+        with more than one grid point: x-y, or y-z / x-z for a vertical slice (a grid
+        with one point in x or y), where ``z`` is ignored, as it is by planar robots
+        (x-y, or x-z for ``planar_point2``). Other coordinates must be fixed on the
+        grid (except z, whose layer is picked).
     quantity : str
         ``"margin"`` (N), ``"feasible"``, ``"tension_sum"``, ``"max_tension"``,
         ``"T1"``.., or a subclass's own (``"sag_correction"``, m). Infinite values are
@@ -985,26 +1181,31 @@ def plot_slice(result: WorkspaceResult, z: float | None = None, quantity: str = 
         raise InvalidInputError("plot_slice needs a result computed on a Grid")
     kind = result.robot.kind if result.robot is not None else "point3"
     names = _COORDS[kind]
-    h, v = 0, 1
+    pos = _POSITIONS[kind]
+    varying = [i for i in pos if result.grid_shape[i] > 1]
+    if len(varying) < 2:
+        raise InvalidInputError(
+            f"plot_slice needs a grid with several points along two position coordinates; "
+            f"it has {dict(zip(names, result.grid_shape, strict=True))}")
+    h, v = varying[0], varying[1]
     index: list[int | slice] = [slice(None)] * len(result.grid_shape)
-    index[h] = index[v] = slice(None)
-    layer = None
+    at: list[str] = []  # the fixed position coordinates, for the title
     for i in range(len(result.grid_shape)):
         if i in (h, v):
             continue
         axis = result.axes[i]
         if names[i] == "z" and z is not None:
             j = int(np.argmin(np.abs(axis - z)))
-            layer = float(axis[j])
         elif len(axis) == 1:
             j = 0
         elif names[i] == "z":
             j = len(axis) // 2
-            layer = float(axis[j])
         else:
             raise InvalidInputError(f"plot_slice needs {names[i]} fixed on the grid; it has "
                                     f"{len(axis)} values")
         index[i] = j
+        if i in pos:
+            at.append(f"{names[i]} = {float(axis[j]):.3g} m")
     values = result.reshape(result.quantity(quantity))[tuple(index)]
     feasible = result.reshape(result.feasible)[tuple(index)]
     margin = result.reshape(result.margin)[tuple(index)]
@@ -1029,12 +1230,14 @@ def plot_slice(result: WorkspaceResult, z: float | None = None, quantity: str = 
         level = np.nan_to_num(level, nan=-2 * top, posinf=2 * top, neginf=-2 * top)
         ax.contour(xs, ys, level.T, levels=[0.0], colors="k", linewidths=1.0)
     if show_anchors and result.robot is not None:
-        col = 2 if kind == "planar_point2" else 1
+        # Columns of the anchors (x, y, z) of the plotted pose coordinates.
+        space = (0, 2) if kind == "planar_point2" else (0, 1, 2)
+        ch, cv = space[h], space[v]
         anchors = result.robot.anchors
-        ax.scatter(anchors[:, 0], anchors[:, col], marker="^", s=60, c="crimson",
+        ax.scatter(anchors[:, ch], anchors[:, cv], marker="^", s=60, c="crimson",
                    edgecolors="k", zorder=3, label="drawing points", clip_on=False)
         # Room for the drawing points, which often sit on the edge of the grid's box.
-        span = [np.concatenate([xs, anchors[:, 0]]), np.concatenate([ys, anchors[:, col]])]
+        span = [np.concatenate([xs, anchors[:, ch]]), np.concatenate([ys, anchors[:, cv]])]
         for lim, vals, cur in ((ax.set_xlim, span[0], ax.get_xlim()),
                                (ax.set_ylim, span[1], ax.get_ylim())):
             lo, hi = min(cur[0], vals.min()), max(cur[1], vals.max())
@@ -1045,8 +1248,8 @@ def plot_slice(result: WorkspaceResult, z: float | None = None, quantity: str = 
     ax.set_ylabel(f"{names[v]} ({unit.get(names[v], 'm')})")
     ax.set_aspect("equal")
     title = result.label(quantity)
-    if layer is not None:
-        title += f" at z = {layer:.3g} m"
+    if at:
+        title += " at " + ", ".join(at)
     if show_anchors and result.robot is not None:
         title += "  (\u25b2 drawing points)"
     ax.set_title(title, fontsize="medium")

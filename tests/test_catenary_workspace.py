@@ -172,3 +172,24 @@ def test_grid_plot_and_table_of_the_sag_correction():
         assert column in frame.columns
     centre = ws.wrench_feasible_workspace(robot, grid)
     assert res.fraction() >= centre.fraction()
+
+
+def test_no_poses_a_pose_on_a_drawing_point_and_the_repr():
+    robot = to.presets.algae_harvester()
+    empty = cws.sag_workspace(robot, np.zeros((0, 3)))
+    assert empty.N == 0 and empty.lengths.shape == (0, 4) and empty.to_frame().shape[0] == 0
+    P = np.array([[0.0, 0.0, 2.0], robot.anchors[0], [10.0, 5.0, 1.0]])
+    res = cws.sag_workspace(robot, P, chunk_size=2)
+    alone = cws.sag_workspace(robot, P[[0, 2]])
+    assert not res.feasible[1] and res.margin[1] == -np.inf
+    assert res.status[1] == to.Status.INFEASIBLE and res.margin_status[1] == "singular"
+    for name in ("tensions", "lengths", "straight_lengths"):
+        assert np.isnan(getattr(res, name)[1]).all(), name
+        np.testing.assert_allclose(getattr(res, name)[[0, 2]], getattr(alone, name),
+                                   rtol=1e-9, err_msg=name)
+    assert np.isnan(res.sag_correction[1])
+    np.testing.assert_array_equal(res.feasible[[0, 2]], alone.feasible)
+    # The one-line repr of the parent, not every array.
+    text = repr(res)
+    assert text.startswith("SagWorkspaceResult('algae harvester', N=3") and "\n" not in text
+    assert "array" not in text

@@ -244,3 +244,109 @@ def test_plots_have_labels_units_and_anchors(thesis):
     ax3 = ws.plot_workspace_3d(res3)
     assert ax3.get_zlabel() == "z (m)"
     plt.close("all")
+
+
+def test_volume_of_spacing_and_counts_grids_is_the_box():
+    thesis = to.presets.algae_harvester(t_min=0.0)
+    lo, hi = [-10.0, -10.0, 0.0], [10.0, 10.0, 2.0]
+    for kw in ({"spacing": 1.0}, {"counts": (21, 21, 3)}, {"counts": (5, 5, 2)},
+               {"spacing": [5.0, 5.0, 2.0]}):  # the last: one cell along z
+        grid = ws.workspace_grid(lo, hi, **kw)
+        np.testing.assert_array_equal(grid.lower, lo)
+        np.testing.assert_array_equal(grid.upper, hi)
+        res = ws.wrench_feasible_workspace(thesis, grid)
+        assert res.feasible.all()
+        assert res.volume() == pytest.approx(800.0, rel=1e-12), kw
+        # The result's bounds are the box, not the outer cell centres.
+        np.testing.assert_array_equal(res.bounds[0], lo)
+        np.testing.assert_array_equal(res.bounds[1], hi)
+    np.testing.assert_allclose(ws.cell_widths([0.0, 0.5, 1.0], 0.0, 1.0), [0.25, 0.5, 0.25])
+    np.testing.assert_allclose(ws.cell_widths([0.25, 0.75], 0.0, 1.0), [0.5, 0.5])
+    np.testing.assert_allclose(ws.cell_widths([2.0], 1.0, 3.0), [2.0])
+    # A Grid built the old way (no box): the outer cells reach half a gap beyond.
+    grid = ws.workspace_grid(lo, hi, spacing=1.0)
+    old = ws.Grid(grid.poses, grid.shape, grid.axes)
+    res = ws.wrench_feasible_workspace(thesis, old)
+    assert res.volume() == pytest.approx(800.0, rel=1e-12)  # cell centres: same box
+
+
+def test_counts_and_spacing_grids_agree_on_the_study_workspace(thesis):
+    robot = thesis.with_(t_max=10_000.0)
+    box = ([-46.55, -31.1, 0.0], [46.55, 31.1, 7.6])
+    fine = ws.wrench_feasible_workspace(robot, ws.workspace_grid(*box, spacing=0.5))
+    counts = ws.wrench_feasible_workspace(robot, ws.workspace_grid(*box, counts=(94, 63, 16)))
+    assert 0.05 < fine.fraction() < 0.95  # a real boundary inside the box
+    assert counts.volume() == pytest.approx(fine.volume(), rel=0.03)
+
+
+def test_bounds_are_validated(thesis):
+    P = ws.sample_poses([-10, -10, 0], [10, 10, 2], 20, seed=0)
+    bad = [([10, 10, 2], [-10, -10, 0]),        # reversed
+           ([np.nan, -10, 0], [10, 10, 2]),     # not finite
+           ([0, 0], [1, 1]),                    # wrong length
+           ([0, 0, 0],)]                        # not a pair
+    for bounds in bad:
+        with pytest.raises(to.InvalidInputError, match="bounds"):
+            ws.wrench_feasible_workspace(thesis, P, bounds=bounds)
+    grid = ws.workspace_grid([-10, -10, 0], [10, 10, 2], spacing=2.0)
+    with pytest.raises(to.InvalidInputError, match="contain the grid"):
+        ws.wrench_feasible_workspace(thesis, grid, bounds=([0, 0, 0], [10, 10, 2]))
+
+
+def test_no_poses_give_an_empty_result(thesis):
+    res = ws.wrench_feasible_workspace(thesis, np.zeros((0, 3)), [[0, 0, 0], [100, 0, 0]])
+    assert res.N == 0 and res.fraction() == 0.0
+    assert res.margins.shape == (0, 2) and res.tensions.shape == (0, 4)
+    assert res.to_frame().shape[0] == 0
+
+
+def test_a_pose_on_a_drawing_point_does_not_abort_the_batch(thesis):
+    P = np.array([[0.0, 0.0, 2.0], thesis.anchors[2], [10.0, 5.0, 1.0]])
+    with pytest.raises(to.InvalidInputError):  # the robot itself refuses the pose
+        thesis.structure_matrices(P)
+    np.testing.assert_array_equal(ws.on_drawing_point(thesis, P), [False, True, False])
+    res = ws.wrench_feasible_workspace(thesis, P, [[0, 0, 0], [100, 0, 0]], chunk_size=2)
+    alone = ws.wrench_feasible_workspace(thesis, P[[0, 2]], [[0, 0, 0], [100, 0, 0]])
+    assert not res.feasible[1] and res.margin[1] == -np.inf
+    assert np.isnan(res.tensions[1]).all() and res.status[1] == to.Status.INFEASIBLE
+    np.testing.assert_allclose(res.margins[[0, 2]], alone.margins, rtol=1e-12)
+    np.testing.assert_allclose(res.tensions[[0, 2]], alone.tensions, rtol=1e-12)
+    # The corners of a counts grid over the pond box are the drawing points.
+    grid = ws.workspace_grid([-46.55, -31.1, 0], [46.55, 31.1, 7.6], counts=(5, 5, 3))
+    res = ws.wrench_feasible_workspace(thesis, grid)
+    assert ws.on_drawing_point(thesis, grid.poses).sum() == 4
+    assert (res.margin[ws.on_drawing_point(thesis, grid.poses)] == -np.inf).all()
+    assert 0 < res.fraction() < 1
+
+
+def test_grid_and_sample_input_checks():
+    box = ([0, 0, 0], [1, 1, 1])
+    for kw in ({"counts": [2, 2]}, {"spacing": [0.5, 0.5]}, {"counts": 2.5},
+               {"counts": np.nan}, {"counts": 0}, {"spacing": 0.0}, {"spacing": np.inf}):
+        with pytest.raises(to.InvalidInputError):
+            ws.workspace_grid(*box, **kw)
+    with pytest.raises(to.InvalidInputError, match="1e\\+12 points"):
+        ws.workspace_grid(*box, spacing=1e-4)
+    with pytest.raises(to.InvalidInputError, match="points"):
+        ws.workspace_grid(*box, counts=[1000, 1000, 1000])
+    for lower, count in (([np.nan], 3), ([0.0], 2.5), ([0.0], 0), ([0.0], "3"), ([2.0], 3)):
+        with pytest.raises(to.InvalidInputError):
+            ws.sample_poses(lower, [1.0], count)
+    assert ws.sample_poses([0.0], [1.0], 3.0).shape == (3, 1)
+
+
+def test_vertical_slice_is_drawn_in_y_and_z(thesis):
+    import matplotlib.pyplot as plt
+
+    grid = ws.workspace_grid([0, -30, 0], [0, 30, 7], spacing=1.0)
+    res = ws.wrench_feasible_workspace(thesis.with_(t_max=10_000.0), grid)
+    ax = ws.plot_slice(res)
+    assert ax.get_xlabel() == "y (m)" and ax.get_ylabel() == "z (m)"
+    assert "x = 0 m" in ax.get_title()
+    anchors = [c for c in ax.collections if c.get_label() == "drawing points"]
+    np.testing.assert_allclose(anchors[0].get_offsets(), thesis.anchors[:, 1:])
+    plt.close("all")
+    line = ws.wrench_feasible_workspace(thesis, ws.workspace_grid([0, -30, 2], [0, 30, 2],
+                                                                  spacing=1.0))
+    with pytest.raises(to.InvalidInputError, match="two position coordinates"):
+        ws.plot_slice(line)
