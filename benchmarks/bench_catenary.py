@@ -131,9 +131,9 @@ def main(n: int = 1_000_000) -> None:
         ours = cat.solve_forces(**s)
         ok_mp = 0
         for i in range(s["x"].size):
-            a = tuple(float(s[key][i]) for key in ("x", "z", "L0", "w", "EA"))
+            params = tuple(float(s[key][i]) for key in ("x", "z", "L0", "w", "EA"))
             try:
-                ok_mp += moorpy_ok(moorpy_call(*a), a)
+                ok_mp += moorpy_ok(moorpy_call(*params), params)
             except Exception:  # MoorPy raises on failure
                 pass
         rows += [
@@ -144,8 +144,8 @@ def main(n: int = 1_000_000) -> None:
     width = max(len(a) for a, _ in rows)
     print(f"{'quantity':<{width}}  value")
     print(f"{'-' * width}  {'-' * 24}")
-    for a, b in rows:
-        print(f"{a:<{width}}  {b}")
+    for quantity, value in rows:
+        print(f"{quantity:<{width}}  {value}")
 
 
 if __name__ == "__main__":

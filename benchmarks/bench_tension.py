@@ -21,12 +21,16 @@ import os
 import time
 from collections.abc import Callable
 from ctypes import c_int
+from functools import partial
 
 import numpy as np
 
 import tension_opt as to
 from tension_opt.backends import get_backend
 from tension_opt.backends._dense import dense_batch
+
+# (what was timed, number of poses or "", result)
+Row = tuple[str, int | str, str]
 
 
 def _feasible_poses(robot: to.CableRobot, N: int, seed: int = 0) -> np.ndarray:
@@ -47,13 +51,13 @@ def _median_time(fn: Callable[[], object], repeat: int) -> float:
     return float(np.median(times))
 
 
-def closed_form_rows(robot: to.CableRobot, poses: np.ndarray, repeat: int) -> list[tuple]:
+def closed_form_rows(robot: to.CableRobot, poses: np.ndarray, repeat: int) -> list[Row]:
     backend = get_backend("closed_form")
-    rows = []
+    rows: list[Row] = []
     for objective in ("min_sum", "min_norm", "pinv"):
         form = to.TensionProblem(objective).standard_form(robot, poses)
-        solve = _median_time(lambda f=form: backend.solve(f), repeat)
-        whole = _median_time(lambda o=objective: to.distribute(robot, poses, o, "closed_form"),
+        solve = _median_time(partial(backend.solve, form), repeat)
+        whole = _median_time(partial(to.distribute, robot, poses, objective, "closed_form"),
                              repeat)
         rows.append((f"closed_form {objective}: solve only", len(poses),
                      f"{solve / len(poses) * 1e9:.0f} ns/pose"))
@@ -71,10 +75,10 @@ def _daqp_loop(solve: Callable[..., tuple], H: list, c: list, A: list, upper: li
     return x
 
 
-def daqp_rows(robot: to.CableRobot, poses: np.ndarray, repeat: int) -> list[tuple]:
+def daqp_rows(robot: to.CableRobot, poses: np.ndarray, repeat: int) -> list[Row]:
     import daqp
 
-    rows = []
+    rows: list[Row] = []
     for objective in ("min_sum", "min_norm"):
         form = to.TensionProblem(objective).standard_form(robot, poses)
         batch = dense_batch(form)
@@ -85,9 +89,9 @@ def daqp_rows(robot: to.CableRobot, poses: np.ndarray, repeat: int) -> list[tupl
         sense = np.zeros(k + n, dtype=c_int)
         sense[k:] = 5
         data = (H, list(batch.c), list(batch.Aeq), list(upper), list(lower))
-        t_direct = _median_time(lambda d=data, s=sense: _daqp_loop(daqp.solve, *d, s), repeat)
+        t_direct = _median_time(partial(_daqp_loop, daqp.solve, *data, sense), repeat)
         t_ours = _median_time(
-            lambda o=objective: to.distribute(robot, poses, o, "qpsolvers:daqp"), repeat)
+            partial(to.distribute, robot, poses, objective, "qpsolvers:daqp"), repeat)
         rows.append((f"qpsolvers:daqp {objective}: distribute()", len(poses),
                      f"{t_ours / len(poses) * 1e6:.1f} us/pose"))
         rows.append((f"daqp.solve {objective}: direct loop, same data", len(poses),
@@ -97,10 +101,10 @@ def daqp_rows(robot: to.CableRobot, poses: np.ndarray, repeat: int) -> list[tupl
     return rows
 
 
-def cvxpy_rows(robot: to.CableRobot, poses: np.ndarray, repeat: int) -> list[tuple]:
+def cvxpy_rows(robot: to.CableRobot, poses: np.ndarray, repeat: int) -> list[Row]:
     import cvxpy as cp
 
-    rows = []
+    rows: list[Row] = []
     form = to.TensionProblem("min_norm").standard_form(robot, poses)
     to.distribute(robot, poses[:1], "min_norm", "cvxpy:CLARABEL")  # compile once
     t_param = _median_time(

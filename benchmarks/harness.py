@@ -317,12 +317,12 @@ def reference_solution(scenario: Scenario, problem: ProblemSpec,
     if key not in cache:
         cache[key] = None
         for backend in REFERENCE_BACKENDS:
+            options: dict[str, Any] = ({"accuracy": "high"} if backend != "closed_form"
+                                       else {})
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
-                    sol = problem.solve(scenario.robot, scenario.poses, backend,
-                                        **({"accuracy": "high"} if backend != "closed_form"
-                                           else {}))
+                    sol = problem.solve(scenario.robot, scenario.poses, backend, **options)
             except Exception:
                 continue
             cache[key] = np.where(sol.success, sol.objective, np.nan)
@@ -516,8 +516,10 @@ class ResultsStore:
         self.directory.mkdir(parents=True, exist_ok=True)
         if traces:
             tmp = self.traces_path.with_name(self.traces_path.name + ".tmp.npz")
-            np.savez_compressed(tmp, **{"|".join(k): v.astype(np.float32)
-                                        for k, v in traces.items()})
+            # Any: a dict unpacked into **kwds would otherwise have to fit allow_pickle too.
+            arrays: dict[str, Any] = {"|".join(k): v.astype(np.float32)
+                                      for k, v in traces.items()}
+            np.savez_compressed(tmp, **arrays)
             os.replace(tmp, self.traces_path)
         tmp = self.results_path.with_suffix(".csv.tmp")
         frame.to_csv(tmp, index=False, float_format="%.6g")

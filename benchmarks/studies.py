@@ -40,7 +40,7 @@ import sys
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, cast
 
 import numpy as np
 import pandas as pd
@@ -96,7 +96,9 @@ NOMINAL_ASPECT_RATIO = NOMINAL_POND_LENGTH / NOMINAL_POND_WIDTH
 DEFAULT_POSES: tuple[tuple[float, float, float], ...] = ((0.0, 0.0, 0.0), (8.0, -5.0, 2.0))
 """Poses of the study's sweeps (m): the nominal pose and an arbitrary one."""
 
-MODELS: tuple[str, ...] = ("thesis", "coupled")
+SagModel = Literal["thesis", "coupled"]
+
+MODELS: tuple[SagModel, ...] = ("thesis", "coupled")
 """Sag models of :func:`catenary.inverse_kinematics` a sweep can evaluate."""
 
 
@@ -226,7 +228,7 @@ class _Chunk:
 
     points: tuple[_Point, ...]
     poses: NDArray[np.float64]
-    models: tuple[str, ...]
+    models: tuple[SagModel, ...]
     objective: str
     backend: str
 
@@ -422,7 +424,7 @@ def _density(point: _Point, robot: CableRobot) -> float:
 def _point_frame(
     point: _Point,
     poses: NDArray[np.float64],
-    models: tuple[str, ...],
+    models: tuple[SagModel, ...],
     objective: str,
     backend: str,
 ) -> pd.DataFrame:
@@ -520,12 +522,13 @@ def _point_frame(
 
 
 def _as_poses(poses: ArrayLike | None) -> NDArray[np.float64]:
-    arr = np.asarray(DEFAULT_POSES if poses is None else poses, dtype=np.float64)
+    given = DEFAULT_POSES if poses is None else poses
+    arr = np.asarray(given, dtype=np.float64)
     if arr.ndim == 1:
         arr = arr[None, :]
     if arr.ndim != 2 or arr.shape[1] != 3 or arr.shape[0] < 1:
         raise InvalidInputError(
-            f"poses must have shape (N, 3) (x, y, z in m); got {np.shape(poses)}"
+            f"poses must have shape (N, 3) (x, y, z in m); got {np.shape(given)}"
         )
     if not np.isfinite(arr).all():
         raise InvalidInputError("poses must be finite")
@@ -617,16 +620,18 @@ def sweep(
     if not model_names or any(mo not in MODELS for mo in model_names) \
             or len(set(model_names)) != len(model_names):
         raise InvalidInputError(f"models must be distinct names among {MODELS}; got {models!r}")
+    chosen = cast(tuple[SagModel, ...], model_names)  # checked just above
     if values is None:
         if name not in STUDY_PARAMETERS:
             raise InvalidInputError(f"{parameter!r} has no default values: pass values=[...]")
         values = STUDY_PARAMETERS[name].defaults
-    elif isinstance(values, str | CableMaterial) or np.ndim(values) == 0:
+    # np.ndim takes any object (a scalar value gives 0).
+    elif isinstance(values, str | CableMaterial) or np.ndim(cast(ArrayLike, values)) == 0:
         values = [values]
     points = _points(name, list(values), robot_overrides, material, elastic)
     p = _as_poses(poses)
     chunks = [
-        _Chunk(tuple(points[s]), p, model_names, objective, backend)
+        _Chunk(tuple(points[s]), p, chosen, objective, backend)
         for s in chunk_slices(len(points), chunk_size)
     ]
     frames = run_chunks(_run_chunk, chunks, executor=executor, progress=progress,

@@ -39,6 +39,8 @@ points.
 
 from __future__ import annotations
 
+from typing import Literal, overload
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -54,6 +56,12 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
+# Results of _evaluate: (x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B), with the
+# flexibility entries None when jacobian is false.
+_Full = tuple[
+    FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray
+]
+_SpansOnly = tuple[FloatArray, FloatArray, None, None, None, FloatArray, FloatArray, FloatArray]
 
 # Taylor coefficients (exact fractions) of asinh(u)/u - 1 = sum c_n u^(2n), n >= 1.
 _ASINHC_M1 = (
@@ -119,13 +127,40 @@ def _inv(EA: FloatArray) -> FloatArray:
         return 1.0 / EA
 
 
-def _shaped(shape: tuple[int, ...], *arrays: FloatArray | None) -> tuple[FloatArray | None, ...]:
+def _shaped(shape: tuple[int, ...], *arrays: FloatArray) -> tuple[FloatArray, ...]:
     """Flat results back to ``shape`` (numpy scalars for ``shape == ()``)."""
     if shape == ():
-        return tuple(None if a is None else a[0] for a in arrays)
-    return tuple(None if a is None else a.reshape(shape) for a in arrays)
+        return tuple(a[0] for a in arrays)
+    return tuple(a.reshape(shape) for a in arrays)
 
 
+@overload
+def _evaluate(
+    H: ArrayLike,
+    V_B: ArrayLike,
+    L0: ArrayLike,
+    w: ArrayLike,
+    inv_EA: ArrayLike,
+    jacobian: Literal[True] = ...,
+) -> _Full: ...
+@overload
+def _evaluate(
+    H: ArrayLike,
+    V_B: ArrayLike,
+    L0: ArrayLike,
+    w: ArrayLike,
+    inv_EA: ArrayLike,
+    jacobian: Literal[False],
+) -> _SpansOnly: ...
+@overload
+def _evaluate(
+    H: ArrayLike,
+    V_B: ArrayLike,
+    L0: ArrayLike,
+    w: ArrayLike,
+    inv_EA: ArrayLike,
+    jacobian: bool = ...,
+) -> _Full | _SpansOnly: ...
 def _evaluate(
     H: ArrayLike,
     V_B: ArrayLike,
@@ -133,7 +168,7 @@ def _evaluate(
     w: ArrayLike,
     inv_EA: ArrayLike,
     jacobian: bool = True,
-) -> tuple[FloatArray | None, ...]:
+) -> _Full | _SpansOnly:
     """Spans and flexibility of broadcastable arrays (the solvers' hot path).
 
     Parameters
@@ -209,7 +244,8 @@ def _evaluate(
         x = HL * inv_EA + x_c
         z = 0.5 * L0 * S * inv_EA + z_c
         if not jacobian:
-            return _shaped(shape, x, z, None, None, None, x_c, T_A, T_B)
+            x, z, x_c, T_A, T_B = _shaped(shape, x, z, x_c, T_A, T_B)
+            return x, z, None, None, None, x_c, T_A, T_B
 
         TT = T_A * T_B
         H2 = H * H
@@ -231,7 +267,8 @@ def _evaluate(
         if bad.size:
             hz = bad[H[bad] == 0.0]
             F_xz[hz] = 0.0
-    return _shaped(shape, x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B)
+    x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B = _shaped(shape, x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B)
+    return x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B
 
 
 def spans(

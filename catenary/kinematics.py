@@ -480,7 +480,7 @@ def _scp(
         of a pose's cables have a taut catenary (stored in H, V_A, V_B, L0)."""
         h, va, vb, l0, its, conv = _catenary(geo.x[sel], geo.z[sel], tens, w, EA, "A")
         cat_its[sel] += its
-        good = conv.all(axis=1)
+        good: NDArray[np.bool_] = np.all(conv, axis=1)
         g = sel[good]
         H[g], V_A[g], V_B[g], L0[g] = h[good], va[good], vb[good], l0[good]
         return good
@@ -771,6 +771,7 @@ def forward_kinematics(
             else np.broadcast_to(np.asarray(wrench, float), (N, robot.dof))[active]
         )
         r, J = _fk_system(robot, pa, Ha, Va, La, w, EA, wr, scale_len, scale_f, jac=True)
+        assert J is not None  # jac=True
         with np.errstate(all="ignore"):
             step = -np.linalg.solve(J, r[..., None])[..., 0]
         step = np.where(np.isfinite(step), step, 0.0)

@@ -382,7 +382,8 @@ def _solve_forces_flat(
     EA: FloatArray,
     rtol: float,
     max_iter: int,
-) -> tuple[FloatArray, ...]:
+) -> tuple[FloatArray, FloatArray, NDArray[np.int64], NDArray[np.bool_], NDArray[np.str_]]:
+    """Flat ``solve_forces``: ``(H, V_B, iterations, converged, status)``."""
     n = x.size
     inv_EA = _inv(EA)
     inext = inv_EA == 0.0
