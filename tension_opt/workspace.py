@@ -211,13 +211,7 @@ def workspace_grid(lower: ArrayLike, upper: ArrayLike, spacing: ArrayLike | None
         On a bad box, ``spacing`` or ``counts`` (wrong length, not positive, counts not
         whole), or a grid of more than ``MAX_GRID_POINTS`` (5e7) points.
     """
-    lo = np.atleast_1d(np.asarray(lower, dtype=float))
-    hi = np.atleast_1d(np.asarray(upper, dtype=float))
-    if lo.shape != hi.shape or lo.ndim != 1:
-        raise InvalidInputError(f"lower and upper must be vectors of one length; got "
-                                f"{lo.shape} and {hi.shape}")
-    if not (np.isfinite(lo).all() and np.isfinite(hi).all()) or (hi < lo).any():
-        raise InvalidInputError(f"the box needs finite lower <= upper; got {lo} and {hi}")
+    lo, hi = _box(lower, upper)
     if (spacing is None) == (counts is None):
         raise InvalidInputError("give exactly one of spacing and counts")
     width = hi - lo
@@ -255,6 +249,18 @@ def workspace_grid(lower: ArrayLike, upper: ArrayLike, spacing: ArrayLike | None
     return Grid(poses, tuple(len(a) for a in axes), tuple(axes), lo.copy(), hi.copy())
 
 
+def _box(lower: ArrayLike, upper: ArrayLike) -> tuple[NDArray, NDArray]:
+    """Checked corners of a box: finite vectors of one length with lower <= upper."""
+    lo = np.atleast_1d(np.asarray(lower, dtype=float))
+    hi = np.atleast_1d(np.asarray(upper, dtype=float))
+    if lo.shape != hi.shape or lo.ndim != 1:
+        raise InvalidInputError(f"lower and upper must be vectors of one length; got "
+                                f"{lo.shape} and {hi.shape}")
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all()) or (hi < lo).any():
+        raise InvalidInputError(f"the box needs finite lower <= upper; got {lo} and {hi}")
+    return lo, hi
+
+
 def sample_poses(lower: ArrayLike, upper: ArrayLike, count: int,
                  seed: int | np.random.Generator | None = None) -> NDArray:
     """Poses drawn uniformly in the box ``lower <= pose <= upper``.
@@ -271,13 +277,7 @@ def sample_poses(lower: ArrayLike, upper: ArrayLike, count: int,
     -------
     ndarray, shape (N, n)
     """
-    lo = np.atleast_1d(np.asarray(lower, dtype=float))
-    hi = np.atleast_1d(np.asarray(upper, dtype=float))
-    if lo.shape != hi.shape or lo.ndim != 1:
-        raise InvalidInputError(f"lower and upper must be vectors of one length; got "
-                                f"{lo.shape} and {hi.shape}")
-    if not (np.isfinite(lo).all() and np.isfinite(hi).all()) or (hi < lo).any():
-        raise InvalidInputError(f"the box needs finite lower <= upper; got {lo} and {hi}")
+    lo, hi = _box(lower, upper)
     try:
         whole = (not isinstance(count, (bool, np.bool_)) and float(count).is_integer()
                  and count >= 1)
