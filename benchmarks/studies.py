@@ -625,9 +625,10 @@ def sweep(
         if name not in STUDY_PARAMETERS:
             raise InvalidInputError(f"{parameter!r} has no default values: pass values=[...]")
         values = STUDY_PARAMETERS[name].defaults
-    # np.ndim takes any object (a scalar value gives 0).
-    elif isinstance(values, str | CableMaterial) or np.ndim(cast(ArrayLike, values)) == 0:
-        values = [values]
+    elif isinstance(values, str | CableMaterial) or np.isscalar(values):
+        values = [values]  # one value
+    elif isinstance(values, np.ndarray):
+        values = values.ravel().tolist()
     points = _points(name, list(values), robot_overrides, material, elastic)
     p = _as_poses(poses)
     chunks = [

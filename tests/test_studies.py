@@ -315,3 +315,12 @@ def test_summary_and_command_line(tmp_path, capsys):
             studies.main([*argv, "--no-progress"])
         assert stop.value.code == 2
         assert message in capsys.readouterr().err
+
+
+def test_values_may_be_any_iterable_or_one_number():
+    expected = sweep("mass", [200.0, 300.0], poses=[[0.0, 0.0, 0.0]], models=("thesis",))
+    for values in ((m for m in [200.0, 300.0]), np.array([200.0, 300.0]), (200.0, 300.0)):
+        got = sweep("mass", values, poses=[[0.0, 0.0, 0.0]], models=("thesis",))
+        pd.testing.assert_frame_equal(got, expected)
+    one = sweep("mass", 250.0, poses=[[0.0, 0.0, 0.0]], models=("thesis",))
+    assert set(one["value"]) == {250.0}
