@@ -138,7 +138,8 @@ def test_round_trip_over_sweep(swept, end: str) -> None:
     ok = inv.converged
     # Where the tension hardly depends on the length (near-vertical cables
     # given H), T is only as accurate as L0 allows: kappa = |dlnT/dlnL0|.
-    kappa = np.abs(_dT_dL0(s, r, end) * s["L0"] / T)
+    with np.errstate(invalid="ignore"):  # H = 0 on vertical cables: 0/0, no bound needed
+        kappa = np.abs(_dT_dL0(s, r, end) * s["L0"] / T)
     tol = 1e-9 + 1e-14 * np.nan_to_num(kappa, nan=0.0)
     assert np.all(np.abs(T_back[ok] - T[ok]) <= tol[ok] * T[ok])
     # ... and back: forward from the returned length gives the same forces.
