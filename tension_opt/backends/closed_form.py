@@ -35,13 +35,17 @@ def _det3(a: NDArray, b: NDArray, c: NDArray) -> NDArray:
             + a[:, 2] * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0]))
 
 
-def pinv_and_null(A: NDArray, b: NDArray) -> tuple[NDArray, NDArray]:
+def pinv_and_null(A: NDArray, b: NDArray, svd: tuple[NDArray, NDArray, NDArray] | None = None
+                  ) -> tuple[NDArray, NDArray]:
     """Minimum-norm solution of ``A T = b`` and an orthonormal null-space basis.
 
     Parameters
     ----------
     A : ndarray, shape (N, n, m)
     b : ndarray, shape (N, n)
+    svd : (U, s, Vt), optional
+        ``numpy.linalg.svd(A, full_matrices=True)`` when the caller already has it
+        (shapes other than 3 x 4 use it).
 
     Returns
     -------
@@ -62,7 +66,7 @@ def pinv_and_null(A: NDArray, b: NDArray) -> tuple[NDArray, NDArray]:
         T = np.einsum("nik,ni->nk", A, y)
         T -= np.einsum("nk,nk->n", T, null)[:, None] * null
         return T, null[..., None]
-    U, s, Vt = np.linalg.svd(A, full_matrices=True)
+    U, s, Vt = svd if svd is not None else np.linalg.svd(A, full_matrices=True)
     T = np.einsum("nki,nk,nk->ni", Vt[:, :n, :], 1.0 / s, np.einsum("nik,ni->nk", U, b))
     return T, np.swapaxes(Vt[:, n:, :], 1, 2)
 
@@ -102,11 +106,14 @@ class ClosedFormBackend(Backend):
         return RawResult(T, status, np.zeros(form.N, dtype=int), 0.0, elapsed, unique, infeas)
 
     def _solve_general(self, form: StandardForm) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-        sv = np.linalg.svd(form.A, compute_uv=False)
+        # One SVD serves the rank check and, beyond 3 x 4, the particular solution and
+        # the null space.
+        svd = np.linalg.svd(form.A, full_matrices=True) if (form.n, form.m) != (3, 4) else None
+        sv = svd[1] if svd is not None else np.linalg.svd(form.A, compute_uv=False)
         singular = sv[:, -1] <= _RANK_TOL * sv[:, 0]
         if singular.any():
             return self._split_singular(form, singular)
-        T0, Z = pinv_and_null(form.A, form.b)
+        T0, Z = pinv_and_null(form.A, form.b, svd)
         scale = form.scale()
         if Z.shape[2] == 1:
             return self._solve_1d(form, T0, Z[..., 0], scale)
