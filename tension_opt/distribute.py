@@ -8,18 +8,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tension_opt.backends.base import Backend, RawResult, available_backends, get_backend
-from tension_opt.errors import UnsupportedProblemError
-from tension_opt.problems import Objective, StandardForm, TensionProblem, as_problem
+from tension_opt.backends.base import Backend, RawResult
+from tension_opt.backends.registry import choose_backend
+from tension_opt.problems import Objective, TensionProblem, as_problem
 from tension_opt.robot import CableRobot
-from tension_opt.solution import Status, TensionSolution
+from tension_opt.solution import STATUS_DTYPE, Status, TensionSolution, status_array
 
 #: Relative tolerance (of the typical tension) on equilibrium and bounds of a solution.
 FEASIBILITY_TOL = 1e-6
 
-# Preference of backend="auto": exact first, then the fastest iterative solvers.
-_AUTO_ORDER = ("closed_form", "qpsolvers:daqp", "qpsolvers:proxqp", "qpsolvers:piqp",
-               "qpsolvers:highs", "scipy:highs", "cvxpy:CLARABEL", "cvxpy")
 
 
 def distribute(
@@ -70,8 +67,7 @@ def distribute(
     sequential = problem.is_sequential and (prev is None or prev.ndim == 1)
     # For a sequence this is the shape of every smoothed pose, to choose and check with.
     form = problem.standard_form_from(robot, A, b, np.zeros(robot.m) if sequential else prev)
-    chosen = _resolve(backend, form)
-    _check_supported(chosen, form)
+    chosen = choose_backend(backend, form)
     prevs: NDArray | None
     if sequential:
         raw, lb, ub, prevs = _solve_sequence(chosen, problem, robot, A, b, prev, options)
@@ -80,29 +76,6 @@ def distribute(
         lb, ub, prevs = form.lb, form.ub, form.previous
     raw.setup_time += geometry_time
     return finish(raw, problem, chosen, A, b, lb, ub, prevs)
-
-
-def _resolve(backend: str | Backend, form: StandardForm) -> Backend:
-    if isinstance(backend, Backend):
-        return backend
-    if backend != "auto":
-        return get_backend(backend)
-    installed = set(available_backends())
-    for name in _AUTO_ORDER:
-        if name in installed:
-            candidate = get_backend(name)
-            if candidate.unsupported(form) is None:
-                return candidate
-    label = form.problem.name if form.problem is not None else "this problem"
-    raise UnsupportedProblemError(f"no installed backend supports {label}")
-
-
-def _check_supported(backend: Backend, form: StandardForm) -> None:
-    reason = backend.unsupported(form)
-    if reason is not None:
-        able = [n for n in available_backends()
-                if get_backend(n).unsupported(form) is None]
-        raise UnsupportedProblemError(f"{reason} (backends that can: {able})")
 
 
 def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot, A: NDArray,
@@ -115,7 +88,7 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
     N, _, m = A.shape
     unsmoothed = problem.with_(smoothing=0.0, rate_limit=None)
     tensions = np.full((N, m), np.nan)
-    status = np.empty(N, dtype=object)
+    status = status_array(N, Status.NOT_RUN)
     iterations: NDArray | None = np.zeros(N, dtype=int)
     unique = np.ones(N, dtype=bool)
     lbs, ubs, prevs = np.empty((N, m)), np.empty((N, m)), np.full((N, m), np.nan)
@@ -129,7 +102,7 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
             prevs[k] = last
         # A pose with no previous solution is unsmoothed (an LP for min-sum), which a
         # QP-only backend hands to the automatic choice.
-        solver = backend if backend.unsupported(form) is None else _resolve("auto", form)
+        solver = backend if backend.unsupported(form) is None else choose_backend("auto", form)
         raw = solver.solve(form, **options)
         tensions[k], status[k] = raw.tensions[0], raw.status[0]
         unique[k] = True if raw.unique is None else raw.unique[0]
@@ -140,7 +113,7 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
         lbs[k], ubs[k] = form.lb[0], form.ub[0]
         setup += raw.setup_time
         solve += raw.solve_time
-        if status[k] is Status.OPTIMAL:
+        if status[k] == Status.OPTIMAL:
             last = tensions[k]
     result = RawResult(tensions, status, iterations, setup, solve, unique)
     return result, lbs, ubs, prevs
@@ -150,7 +123,7 @@ def finish(raw: RawResult, problem: TensionProblem, backend: Backend, A: NDArray
            lb: NDArray, ub: NDArray, previous: NDArray | None) -> TensionSolution:
     """Turn a backend's raw result into a :class:`TensionSolution` with its diagnostics."""
     T = np.asarray(raw.tensions, dtype=float)
-    status = np.asarray(raw.status, dtype=object)
+    status = np.asarray(raw.status, dtype=STATUS_DTYPE)
     solved = (status == Status.OPTIMAL) | (status == Status.INACCURATE)
     T[~solved] = np.nan
     residual = np.linalg.norm(np.einsum("nij,nj->ni", A, T) - b, axis=1)

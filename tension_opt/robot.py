@@ -2,16 +2,8 @@
 
 Conventions
 -----------
-Base frame: z up, gravity along -z. A pose is
-
-==================  ==========  =======================================
-kind                pose shape  pose coordinates
-==================  ==========  =======================================
-``"point3"``        (N, 3)      x, y, z of a point mass (all attachments at the origin)
-``"planar_point2"`` (N, 2)      x, z of a point mass moving in the xz plane
-``"planar3"``       (N, 3)      x, y, rotation about z (rad) in the xy plane
-``"spatial6"``      (N, 6)      x, y, z, rotation vector (rad)
-==================  ==========  =======================================
+Base frame: z up, gravity along -z. A pose's coordinates depend on the robot's kind
+(its motion pattern, :mod:`tension_opt.kinds`).
 
 Cable ``i`` runs from the attachment point ``b_i = p + R a_i`` on the platform to
 its drawing point (anchor) ``A_i`` in the base frame. Its unit vector
@@ -29,20 +21,11 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from tension_opt.errors import InvalidInputError
+from tension_opt.kinds import MotionPattern, get_kind
 
 RobotKind = Literal["point3", "planar_point2", "planar3", "spatial6"]
-
-# Rows of the full spatial wrench (fx, fy, fz, mx, my, mz) kept for each kind.
-_WRENCH_ROWS: dict[str, tuple[int, ...]] = {
-    "point3": (0, 1, 2),
-    "planar_point2": (0, 2),
-    "planar3": (0, 1, 5),
-    "spatial6": (0, 1, 2, 3, 4, 5),
-}
-_POSE_SIZE = {"point3": 3, "planar_point2": 2, "planar3": 3, "spatial6": 6}
 
 
 @dataclass(frozen=True)
@@ -105,8 +88,9 @@ class CableRobot:
         Attachment points in the platform frame (m). All zero for a point mass.
     mass : float
         Platform (end-effector) mass (kg), > 0.
-    kind : {"point3", "planar_point2", "planar3", "spatial6"}
-        Degrees of freedom of the platform; see the module docstring.
+    kind : {"point3", "planar_point2", "planar3", "spatial6"} or MotionPattern
+        How the platform moves (:mod:`tension_opt.kinds`); stored as the kind's name,
+        its pattern as :attr:`pattern`.
     com : array_like, shape (3,)
         Centre of mass in the platform frame (m).
     g : float
@@ -125,7 +109,7 @@ class CableRobot:
     anchors: NDArray
     attachments: NDArray
     mass: float
-    kind: RobotKind = "point3"
+    kind: RobotKind | str = "point3"
     com: NDArray = field(default_factory=lambda: np.zeros(3))
     g: float = 9.81
     t_min: NDArray | float = 0.0
@@ -133,12 +117,12 @@ class CableRobot:
     cable: CableProperties | None = None
     home: NDArray | None = None
     name: str = "cable robot"
+    pattern: MotionPattern = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        if self.kind not in _WRENCH_ROWS:
-            raise InvalidInputError(
-                f"kind must be one of {sorted(_WRENCH_ROWS)}, got {self.kind!r}"
-            )
+        pattern = get_kind(self.kind)
+        object.__setattr__(self, "pattern", pattern)
+        object.__setattr__(self, "kind", pattern.name)
         anchors = _as_finite("anchors", self.anchors)
         if anchors.ndim != 2 or anchors.shape[1] != 3 or anchors.shape[0] < 1:
             raise InvalidInputError(f"anchors must have shape (m, 3), got {anchors.shape}")
@@ -188,7 +172,7 @@ class CableRobot:
     @property
     def dof(self) -> int:
         """Degrees of freedom ``n`` (rows of the structure matrix and size of a pose)."""
-        return _POSE_SIZE[self.kind]
+        return self.pattern.pose_size
 
     @property
     def redundancy(self) -> int:
@@ -198,7 +182,7 @@ class CableRobot:
     @property
     def wrench_rows(self) -> tuple[int, ...]:
         """Rows of the spatial wrench (fx, fy, fz, mx, my, mz) that the kind keeps."""
-        return _WRENCH_ROWS[self.kind]
+        return self.pattern.wrench_rows
 
     @property
     def weight(self) -> float:
@@ -227,29 +211,11 @@ class CableRobot:
 
     def frames(self, poses: NDArray) -> tuple[NDArray, NDArray]:
         """Platform position (N, 3) and rotation matrices (N, 3, 3) of validated poses (N, n)."""
-        N = poses.shape[0]
-        position = np.zeros((N, 3))
-        if self.kind == "point3":
-            position[:] = poses
-            return position, np.broadcast_to(np.eye(3), (N, 3, 3))
-        if self.kind == "planar_point2":
-            position[:, 0] = poses[:, 0]
-            position[:, 2] = poses[:, 1]
-            return position, np.broadcast_to(np.eye(3), (N, 3, 3))
-        if self.kind == "planar3":
-            position[:, :2] = poses[:, :2]
-            c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
-            R = np.zeros((N, 3, 3))
-            R[:, 0, 0], R[:, 0, 1], R[:, 1, 0], R[:, 1, 1], R[:, 2, 2] = c, -s, s, c, 1.0
-            return position, R
-        position[:] = poses[:, :3]
-        return position, Rotation.from_rotvec(poses[:, 3:]).as_matrix().reshape(N, 3, 3)
+        return self.pattern.frames(poses)
 
     def attachment_points(self, poses: ArrayLike) -> NDArray:
         """Attachment points in the base frame, shape (N, m, 3) (m)."""
-        p = self.as_poses(poses)
-        position, R = self.frames(p)
-        return position[:, None, :] + np.einsum("nij,mj->nmi", R, self.attachments)
+        return self.cable_geometry(poses, check=False).attachment_points
 
     # ------------------------------------------------------------- kinematics
     def inverse_kinematics(self, poses: ArrayLike) -> tuple[NDArray, NDArray]:
@@ -271,26 +237,61 @@ class CableRobot:
         InvalidInputError
             If a pose puts an attachment point on its drawing point (zero-length cable).
         """
-        p = self.as_poses(poses)
-        lengths, unit, _ = self._cables(p)
-        return lengths, unit
+        geometry = self.cable_geometry(poses)
+        return geometry.lengths, geometry.unit
 
-    def _cables(self, p: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-        position, R = self.frames(p)
-        if self.kind in ("point3", "planar_point2"):  # no rotation: arms are the attachments
-            arm = np.broadcast_to(self.attachments, (len(p), *self.attachments.shape))
-        else:
-            arm = np.einsum("nij,mj->nmi", R, self.attachments)  # R a_i, (N, m, 3)
-        vec = self.anchors[None] - (position[:, None, :] + arm)
-        lengths = np.sqrt(np.einsum("nmi,nmi->nm", vec, vec))
-        scale = np.maximum(1.0, np.abs(self.anchors).max())
-        if (lengths <= 1e-12 * scale).any():
-            k, i = (int(v) for v in np.argwhere(lengths <= 1e-12 * scale)[0])
+    def cable_geometry(self, poses: ArrayLike, *, check: bool = True) -> CableGeometry:
+        """Straight cables of a batch of poses: the one place cable vectors are computed.
+
+        Parameters
+        ----------
+        poses : array_like, shape (N, n) or (n,)
+        check : bool
+            Raise on a pose that puts an attachment point on its drawing point (a
+            zero-length cable has no direction). With ``check=False`` such poses are
+            returned and flagged in :attr:`CableGeometry.degenerate`.
+
+        Returns
+        -------
+        CableGeometry
+
+        Raises
+        ------
+        InvalidInputError
+            For invalid poses, or (``check=True``) a zero-length cable.
+        """
+        p = self.as_poses(poses)
+        position, R = self.pattern.frames(p)
+        if self.pattern.rotates:
+            arms = np.einsum("nij,mj->nmi", R, self.attachments)  # R a_i, (N, m, 3)
+        else:  # no rotation: the arms are the attachments
+            arms = np.broadcast_to(self.attachments, (len(p), *self.attachments.shape))
+        vectors = self.anchors[None] - (position[:, None, :] + arms)
+        lengths = np.sqrt(np.einsum("nmi,nmi->nm", vectors, vectors))
+        geometry = CableGeometry(p, position, R, arms, vectors, lengths,
+                                 1e-12 * max(1.0, float(np.abs(self.anchors).max())))
+        if check and geometry.degenerate.any():
+            k = int(np.argmax(geometry.degenerate))
+            i = int(np.argmax(lengths[k] <= geometry.zero_length))
             raise InvalidInputError(
                 f"pose {k} ({p[k].tolist()}) puts cable {i} on its drawing point "
                 f"{self.anchors[i].tolist()}: zero-length cable"
             )
-        return lengths, vec / lengths[..., None], arm
+        return geometry
+
+    def cable_wrenches(self, forces: NDArray, arms: NDArray) -> NDArray:
+        """Wrench of each cable force on the platform, shape (N, m, n).
+
+        Parameters
+        ----------
+        forces : ndarray, shape (N, m, 3)
+            Force of each cable on the platform (N), in the base frame.
+        arms : ndarray, shape (N, m, 3)
+            Attachment points relative to the platform reference point, ``R a_i`` (m).
+        """
+        if not self.pattern.rotates and not self.attachments.any():
+            return self.pattern.select(np.concatenate([forces, np.zeros_like(forces)], -1))
+        return self.pattern.select(np.concatenate([forces, np.cross(arms, forces)], axis=-1))
 
     def structure_matrices(self, poses: ArrayLike) -> NDArray:
         """Structure (wrench) matrices, shape (N, n, m).
@@ -298,16 +299,16 @@ class CableRobot:
         Column ``i`` is the wrench a unit tension in cable ``i`` applies to the platform,
         restricted to the robot's degrees of freedom.
         """
-        p = self.as_poses(poses)
-        _, unit, arm = self._cables(p)
-        return self._structure_from(unit, arm)
+        return self.structure_from(self.cable_geometry(poses))
 
-    def _structure_from(self, unit: NDArray, arm: NDArray) -> NDArray:
-        rows = _WRENCH_ROWS[self.kind]
-        if self.kind in ("point3", "planar_point2"):
-            return np.ascontiguousarray(np.swapaxes(unit[..., list(rows)], 1, 2))
-        full = np.concatenate([unit, np.cross(arm, unit)], axis=-1)  # (N, m, 6)
-        return np.ascontiguousarray(np.swapaxes(full[..., list(rows)], 1, 2))
+    def structure_from(self, geometry: CableGeometry) -> NDArray:
+        """Structure matrices (N, n, m) of a :class:`CableGeometry`."""
+        unit = geometry.unit
+        if not self.pattern.rotates:
+            rows = [r for r in self.pattern.wrench_rows if r < 3]
+            if len(rows) == self.dof:
+                return np.ascontiguousarray(np.swapaxes(unit[..., rows], 1, 2))
+        return np.ascontiguousarray(np.swapaxes(self.cable_wrenches(unit, geometry.arms), 1, 2))
 
     def gravity_wrench(self, poses: ArrayLike) -> NDArray:
         """Wrench of gravity on the platform about its reference point, shape (N, n)."""
@@ -316,10 +317,10 @@ class CableRobot:
         force = np.array([0.0, 0.0, -self.mass * self.g])
         full = np.zeros((N, 6))
         full[:, :3] = force
-        if self.kind in ("planar3", "spatial6"):
-            _, R = self.frames(p)
+        if self.pattern.rotates:
+            _, R = self.pattern.frames(p)
             full[:, 3:] = np.cross(R @ self.com, force)
-        return full[:, list(_WRENCH_ROWS[self.kind])]
+        return self.pattern.select(full)
 
     def required_wrench(self, poses: ArrayLike, wrench: ArrayLike | None = None) -> NDArray:
         """Right-hand side ``b = -(w_g + w_ext)`` of the equilibrium ``A T = b``, shape (N, n).
@@ -351,7 +352,7 @@ class CableRobot:
         tol: float = 1e-10,
         max_iter: int = 50,
         consistency_tol: float = 1e-6,
-    ) -> ForwardKinematicsResult:
+    ) -> StraightForwardKinematicsResult:
         """Straight-line forward kinematics by batched Gauss-Newton least squares.
 
         Parameters
@@ -368,7 +369,7 @@ class CableRobot:
 
         Returns
         -------
-        ForwardKinematicsResult
+        StraightForwardKinematicsResult
             ``poses`` (N, n), ``residual`` (N,) RMS length residual (m), ``iterations``
             (N,), ``status`` (N,) among ``"converged"``, ``"inconsistent"``,
             ``"not_converged"``.
@@ -384,7 +385,7 @@ class CableRobot:
             raise InvalidInputError("lengths must be positive")
         N = L.shape[0]
         if initial_poses is None:
-            start = self.home if self.home is not None else self._default_home()
+            start = self.default_home()
             x = np.tile(start, (N, 1))
         else:
             x = self.as_poses(initial_poses)
@@ -395,8 +396,9 @@ class CableRobot:
             if not active.any():
                 break
             idx = np.flatnonzero(active)
-            lk, unit, arm = self._cables(x[idx])
-            J = -np.swapaxes(self._structure_from(unit, arm), 1, 2)  # dL/dpose, (k, m, n)
+            geometry = self.cable_geometry(x[idx])
+            lk = geometry.lengths
+            J = -np.swapaxes(self.structure_from(geometry), 1, 2)  # dL/dpose, (k, m, n)
             r = lk - L[idx]
             # Normal equations of the Gauss-Newton step, with a tiny damping for safety.
             JtJ = np.einsum("kmi,kmj->kij", J, J) + 1e-12 * np.eye(self.dof)
@@ -405,33 +407,73 @@ class CableRobot:
             iterations[idx] += 1
             done = np.abs(step).max(axis=1) < tol
             active[idx[done]] = False
-        lk, _, _ = self._cables(x)
+        lk = self.cable_geometry(x).lengths
         residual = np.sqrt(np.mean((lk - L) ** 2, axis=1))
         met = np.where(residual > consistency_tol, "inconsistent", "converged")
         status = np.where(active, "not_converged", met)
-        return ForwardKinematicsResult(x, residual, iterations, status)
+        return StraightForwardKinematicsResult(x, residual, iterations, status)
 
     def displace(self, x: NDArray, step: NDArray) -> NDArray:
         """Poses (N, n) moved by steps (N, n); the angular part of a spatial step is a
         rotation vector applied in the base frame (left-multiplied)."""
-        if self.kind != "spatial6":
-            return x + step
-        # The angular part of the step is a rotation in the base frame (left-multiplied).
-        rot = Rotation.from_rotvec(step[:, 3:]) * Rotation.from_rotvec(x[:, 3:])
-        return np.concatenate([x[:, :3] + step[:, :3], rot.as_rotvec().reshape(-1, 3)], axis=1)
+        return self.pattern.displace(x, step)
 
-    def _default_home(self) -> NDArray:
-        centre = self.anchors.mean(axis=0)
-        return {
-            "point3": centre,
-            "planar_point2": centre[[0, 2]],
-            "planar3": np.array([centre[0], centre[1], 0.0]),
-            "spatial6": np.concatenate([centre, np.zeros(3)]),
-        }[self.kind]
+    def default_home(self) -> NDArray:
+        """The robot's ``home`` pose, or the anchors' centroid unrotated, shape (n,)."""
+        if self.home is not None:
+            return self.home
+        return self.pattern.home(self.anchors.mean(axis=0))
 
 
 @dataclass(frozen=True)
-class ForwardKinematicsResult:
+class CableGeometry:
+    """Straight cables of a batch of poses (:meth:`CableRobot.cable_geometry`).
+
+    Attributes
+    ----------
+    poses : ndarray, shape (N, n)
+        The validated poses.
+    position : ndarray, shape (N, 3)
+        Platform reference point in the base frame (m).
+    rotation : ndarray, shape (N, 3, 3)
+        Platform orientation.
+    arms : ndarray, shape (N, m, 3)
+        Attachment points relative to the reference point, ``R a_i`` (m).
+    vectors : ndarray, shape (N, m, 3)
+        From each attachment point to its drawing point (m).
+    lengths : ndarray, shape (N, m)
+        Straight cable lengths (m).
+    zero_length : float
+        Length (m) at or below which a cable counts as on its drawing point.
+    """
+
+    poses: NDArray
+    position: NDArray
+    rotation: NDArray
+    arms: NDArray
+    vectors: NDArray
+    lengths: NDArray
+    zero_length: float
+
+    @property
+    def unit(self) -> NDArray:
+        """Unit vectors from the attachment points toward the drawing points, (N, m, 3)."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return self.vectors / self.lengths[..., None]
+
+    @property
+    def attachment_points(self) -> NDArray:
+        """Attachment points in the base frame, (N, m, 3) (m)."""
+        return self.position[:, None, :] + self.arms
+
+    @property
+    def degenerate(self) -> NDArray:
+        """Poses that put some cable on its drawing point, (N,) of bool."""
+        return np.asarray((self.lengths <= self.zero_length).any(axis=1), dtype=bool)
+
+
+@dataclass(frozen=True)
+class StraightForwardKinematicsResult:
     """Result of :meth:`CableRobot.forward_kinematics`.
 
     Attributes

@@ -12,7 +12,16 @@ from numpy.typing import NDArray
 
 
 class Status(StrEnum):
-    """Outcome of one pose."""
+    """Outcome of one pose or one cable: the one status vocabulary of the toolkit.
+
+    Optimisation (tension distribution, margins) reports ``OPTIMAL``, ``INACCURATE``,
+    ``INFEASIBLE``, ``UNBOUNDED``, ``MAX_ITER``, ``SOLVER_ERROR`` or ``NOT_RUN``;
+    iterative solvers (catenary, kinematics) ``CONVERGED``, ``NOT_CONVERGED``,
+    ``INCONSISTENT`` (no pose meets the lengths), ``SLACK`` (a cable that cannot carry
+    the asked tension) or ``INDETERMINATE`` (the data do not fix the answer), besides
+    ``INFEASIBLE``. Status arrays are numpy unicode arrays of these values
+    (:func:`status_array`); compare them with ``==`` (members are strings).
+    """
 
     OPTIMAL = "optimal"
     INFEASIBLE = "infeasible"
@@ -21,6 +30,11 @@ class Status(StrEnum):
     MAX_ITER = "max_iter"
     SOLVER_ERROR = "solver_error"
     NOT_RUN = "not_run"
+    CONVERGED = "converged"
+    NOT_CONVERGED = "not_converged"
+    INCONSISTENT = "inconsistent"
+    SLACK = "slack"
+    INDETERMINATE = "indeterminate"
 
     def __str__(self) -> str:
         return self.value
@@ -120,8 +134,10 @@ class TensionSolution:
         )
 
 
+#: dtype of status arrays: wide enough for every :class:`Status` value.
+STATUS_DTYPE = np.dtype(f"<U{max(len(s.value) for s in Status)}")
+
+
 def status_array(N: int, fill: Status = Status.OPTIMAL) -> NDArray:
-    """Object array of ``N`` statuses (``np.full`` would turn the members into plain str)."""
-    out = np.empty(N, dtype=object)
-    out.fill(fill)
-    return out
+    """Array of ``N`` statuses, all ``fill``, shape (N,) of :data:`STATUS_DTYPE`."""
+    return np.full(N, Status(fill).value, dtype=STATUS_DTYPE)

@@ -18,7 +18,8 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from tension_opt.backends.base import Backend, RawResult, get_backend
+from tension_opt.backends.base import Backend, RawResult
+from tension_opt.backends.registry import get_backend
 from tension_opt.distribute import distribute, finish
 from tension_opt.errors import InvalidInputError, UnsupportedProblemError
 from tension_opt.problems import Objective, as_problem

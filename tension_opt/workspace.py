@@ -46,7 +46,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from tension_opt.backends.base import Backend, available_backends, get_backend
+from tension_opt.backends.base import Backend
+from tension_opt.backends.registry import available_backends, get_backend
 from tension_opt.distribute import distribute
 from tension_opt.errors import InvalidInputError, UnsupportedProblemError
 from tension_opt.executors import Executor, chunk_slices, run_chunks

@@ -1,9 +1,8 @@
-"""Backend interface, registry and the shared tie-break of non-unique LP optima."""
+"""Backend interface and the shared tie-break of non-unique LP optima."""
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -11,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tension_opt.backends import _lowdim
-from tension_opt.errors import BackendNotAvailableError, InvalidInputError
+from tension_opt.errors import InvalidInputError
 from tension_opt.problems import StandardForm
 from tension_opt.solution import Status, status_array
 
@@ -196,60 +195,6 @@ def optimal_face(form: StandardForm, T: NDArray) -> StandardForm:
     return StandardForm(form.A, form.b, form.lb, form.ub, np.ones((N, m)), np.zeros((N, m)),
                         None, form.problem, form.previous, G=form.c[:, None, :],
                         h=(fstar + slack)[:, None])
-
-
-# ---------------------------------------------------------------- registry
-_FACTORIES: dict[str, Callable[[str | None], Backend]] = {}
-_AVAILABLE: dict[str, Callable[[], list[str]]] = {}
-
-
-def register(family: str, factory: Callable[[str | None], Backend],
-             available: Callable[[], list[str]]) -> None:
-    """Register a backend family (``"cvxpy"``) with a factory and a list of its solvers."""
-    _FACTORIES[family] = factory
-    _AVAILABLE[family] = available
-
-
-def available_backends() -> list[str]:
-    """Names of every installed backend and solver, e.g. ``"qpsolvers:daqp"``."""
-    _load_all()
-    names: list[str] = []
-    for family in _FACTORIES:
-        names.extend(_AVAILABLE[family]())
-    return names
-
-
-def get_backend(name: str) -> Backend:
-    """Backend instance for a registry name such as ``"cvxpy:CLARABEL"``.
-
-    Backends hold no per-call state, so one instance per name is kept and reused.
-    """
-    if name not in _INSTANCES:
-        _INSTANCES[name] = _make_backend(name)
-    return _INSTANCES[name]
-
-
-_INSTANCES: dict[str, Backend] = {}
-
-
-def _make_backend(name: str) -> Backend:
-    _load_all()
-    family, _, solver = name.partition(":")
-    if family not in _FACTORIES:
-        raise BackendNotAvailableError(
-            f"unknown backend {name!r}; installed: {available_backends()}"
-        )
-    return _FACTORIES[family](solver or None)
-
-
-def _load_all() -> None:
-    # Importing the modules registers them; each handles its own missing dependency.
-    from tension_opt.backends import (  # noqa: F401
-        closed_form,
-        cvxpy_backend,
-        qpsolvers_backend,
-        scipy_backend,
-    )
 
 
 def pose_loop_result(N: int, m: int) -> tuple[NDArray, NDArray, NDArray]:

@@ -17,7 +17,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tension_opt.backends import _lowdim
-from tension_opt.backends.base import Backend, RawResult, register
+from tension_opt.backends.base import Backend, RawResult
+from tension_opt.errors import BackendNotAvailableError
 from tension_opt.problems import StandardForm
 from tension_opt.solution import Status, status_array
 
@@ -265,4 +266,14 @@ class ClosedFormBackend(Backend):
         return T, status, unique, np.full(form.N, np.nan)
 
 
-register("closed_form", lambda solver: ClosedFormBackend(), lambda: ["closed_form"])
+def available() -> list[str]:
+    """Registry names this family serves: the closed form needs nothing optional."""
+    return ["closed_form"]
+
+
+def make(solver: str | None) -> Backend:
+    """The closed-form backend (it takes no solver suffix)."""
+    if solver is not None:
+        raise BackendNotAvailableError(
+            f"the closed form takes no solver suffix, got 'closed_form:{solver}'")
+    return ClosedFormBackend()

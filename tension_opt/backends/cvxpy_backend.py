@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tension_opt.backends.base import Backend, RawResult, pose_loop_result, register
+from tension_opt.backends.base import Backend, RawResult, pose_loop_result
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.problems import StandardForm
 from tension_opt.solution import Status
@@ -204,7 +204,7 @@ class CvxpyBackend(Backend):
                 compile_time += dt
                 result = self._run(compiled, form, rows, s, sigma, lb_fin, ub_fin, warm,
                                    settings)
-                chunk_ok = result[0] is Status.OPTIMAL
+                chunk_ok = result[0] == Status.OPTIMAL
             if chunk_ok:
                 st, count, x = result
                 assert x is not None  # an optimal solve has values
@@ -244,10 +244,13 @@ class CvxpyBackend(Backend):
                 None if stats is None else stats.num_iters, compiled.x.value)
 
 
-def _available() -> list[str]:
+def available() -> list[str]:
+    """Registry names of the installed cvxpy solvers."""
     if cp is None:
         return []
     return [f"cvxpy:{s}" for s in cp.installed_solvers()]
 
 
-register("cvxpy", lambda solver: CvxpyBackend(solver), _available)
+def make(solver: str | None) -> Backend:
+    """The cvxpy backend of ``solver`` (default: Clarabel)."""
+    return CvxpyBackend(solver)

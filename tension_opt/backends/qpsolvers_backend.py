@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from tension_opt.backends._dense import DenseBatch, dense_batch
-from tension_opt.backends.base import Backend, RawResult, pose_loop_result, register
+from tension_opt.backends.base import Backend, RawResult, pose_loop_result
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.problems import StandardForm
 from tension_opt.solution import Status
@@ -198,15 +198,14 @@ class QpsolversBackend(Backend):
         return RawResult(batch.tensions(x_all), status, iters, setup, elapsed)
 
 
-def _available() -> list[str]:
+def available() -> list[str]:
+    """Registry names of the installed qpsolvers solvers this package knows."""
     if qpsolvers is None:
         return []
     return [f"qpsolvers:{s}" for s in sorted(qpsolvers.available_solvers)
             if s in HIGH_ACCURACY]
 
 
-def _factory(solver: str | None) -> Backend:
+def make(solver: str | None) -> Backend:
+    """The qpsolvers backend of ``solver`` (default: DAQP)."""
     return QpsolversBackend(solver or "daqp")
-
-
-register("qpsolvers", _factory, _available)

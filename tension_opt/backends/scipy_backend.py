@@ -14,7 +14,8 @@ import scipy
 from scipy.optimize import linprog
 
 from tension_opt.backends._dense import dense_batch
-from tension_opt.backends.base import Backend, RawResult, pose_loop_result, register
+from tension_opt.backends.base import Backend, RawResult, pose_loop_result
+from tension_opt.errors import BackendNotAvailableError
 from tension_opt.problems import StandardForm
 from tension_opt.solution import Status
 
@@ -62,4 +63,13 @@ class ScipyHighsBackend(Backend):
         return RawResult(batch.tensions(x_all), status, iters, setup, elapsed)
 
 
-register("scipy", lambda solver: ScipyHighsBackend(), lambda: ["scipy:highs"])
+def available() -> list[str]:
+    """Registry names of this family: scipy is a core dependency."""
+    return ["scipy:highs"]
+
+
+def make(solver: str | None) -> Backend:
+    """The scipy HiGHS backend (``scipy`` or ``scipy:highs``)."""
+    if solver not in (None, "highs"):
+        raise BackendNotAvailableError(f"scipy offers 'scipy:highs' only, got 'scipy:{solver}'")
+    return ScipyHighsBackend()
