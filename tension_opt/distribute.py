@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -10,9 +11,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.backends.base import Backend, RawResult
 from tension_opt.backends.registry import choose_backend
-from tension_opt.problems import Objective, TensionProblem, as_problem
+from tension_opt.problems import Objective, StandardForm, TensionProblem, as_problem
 from tension_opt.robot import CableRobot
-from tension_opt.solution import STATUS_DTYPE, Status, TensionSolution, status_array
+from tension_opt.solution import Status, TensionSolution, status_array
 
 #: Relative tolerance (of the typical tension) on equilibrium and bounds of a solution.
 FEASIBILITY_TOL = 1e-6
@@ -68,22 +69,33 @@ def distribute(
     # For a sequence this is the shape of every smoothed pose, to choose and check with.
     form = problem.standard_form_from(robot, A, b, np.zeros(robot.m) if sequential else prev)
     chosen = choose_backend(backend, form)
-    prevs: NDArray | None
     if sequential:
-        raw, lb, ub, prevs = _solve_sequence(chosen, problem, robot, A, b, prev, options)
+        raw, form = _solve_sequence(chosen, problem, robot, A, b, prev, options)
     else:
         raw = chosen.solve(form, **options)
-        lb, ub, prevs = form.lb, form.ub, form.previous
-    raw.setup_time += geometry_time
-    return finish(raw, problem, chosen, A, b, lb, ub, prevs)
+    return solution_of(form, raw, chosen, setup_time=geometry_time)
+
+
+def solution_of(form: StandardForm, raw: RawResult, backend: Backend,
+                setup_time: float = 0.0) -> TensionSolution:
+    """The :class:`TensionSolution` of a backend's raw result on ``form``.
+
+    ``setup_time`` (s) is added to the backend's own (e.g. the geometry's).
+    """
+    return TensionSolution.from_form(
+        form, raw.tensions, raw.status, backend=backend.name, solver=backend.solver,
+        solver_version=backend.version, unique=raw.unique, iterations=raw.iterations,
+        infeasibility=raw.infeasibility, setup_time=raw.setup_time + setup_time,
+        solve_time=raw.solve_time, extras=raw.extras)
 
 
 def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot, A: NDArray,
                     b: NDArray, previous: NDArray | None, options: dict[str, Any]
-                    ) -> tuple[RawResult, NDArray, NDArray, NDArray]:
+                    ) -> tuple[RawResult, StandardForm]:
     """Solve poses in order, each smoothed against the previous solution.
 
-    The chain is sequential by nature (pose k needs the answer of pose k - 1).
+    The chain is sequential by nature (pose k needs the answer of pose k - 1). Returns
+    the raw result and the stacked form of the problems solved.
     """
     N, _, m = A.shape
     unsmoothed = problem.with_(smoothing=0.0, rate_limit=None)
@@ -91,7 +103,7 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
     status = status_array(N, Status.NOT_RUN)
     iterations: NDArray | None = np.zeros(N, dtype=int)
     unique = np.ones(N, dtype=bool)
-    lbs, ubs, prevs = np.empty((N, m)), np.empty((N, m)), np.full((N, m), np.nan)
+    forms: list[StandardForm] = []
     setup = solve = 0.0
     last = previous
     for k in range(N):
@@ -99,7 +111,7 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
             form = unsmoothed.standard_form_from(robot, A[k:k + 1], b[k:k + 1])
         else:
             form = problem.standard_form_from(robot, A[k:k + 1], b[k:k + 1], last)
-            prevs[k] = last
+        forms.append(form)
         # A pose with no previous solution is unsmoothed (an LP for min-sum), which a
         # QP-only backend hands to the automatic choice.
         solver = backend if backend.unsupported(form) is None else choose_backend("auto", form)
@@ -110,40 +122,11 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
             iterations[k] = raw.iterations[0]
         else:
             iterations = None
-        lbs[k], ubs[k] = form.lb[0], form.ub[0]
         setup += raw.setup_time
         solve += raw.solve_time
         if status[k] == Status.OPTIMAL:
             last = tensions[k]
-    result = RawResult(tensions, status, iterations, setup, solve, unique)
-    return result, lbs, ubs, prevs
-
-
-def finish(raw: RawResult, problem: TensionProblem, backend: Backend, A: NDArray, b: NDArray,
-           lb: NDArray, ub: NDArray, previous: NDArray | None) -> TensionSolution:
-    """Turn a backend's raw result into a :class:`TensionSolution` with its diagnostics."""
-    T = np.asarray(raw.tensions, dtype=float)
-    status = np.asarray(raw.status, dtype=STATUS_DTYPE)
-    solved = (status == Status.OPTIMAL) | (status == Status.INACCURATE)
-    T[~solved] = np.nan
-    residual = np.linalg.norm(np.einsum("nij,nj->ni", A, T) - b, axis=1)
-    violation = np.maximum(np.nanmax(np.maximum(lb - T, T - ub), axis=1, initial=0.0), 0.0)
-    violation[~solved] = np.nan
-    # A solver's "optimal" is checked where it is cheap: equilibrium and bounds must hold
-    # to FEASIBILITY_TOL of the typical tension, or the pose is reported inaccurate.
-    scale = np.maximum(np.linalg.norm(b, axis=1),
-                       np.where(np.isfinite(lb), np.abs(lb), 0.0).max(axis=1))
-    loose = solved & ((residual > FEASIBILITY_TOL * scale)
-                      | (violation > FEASIBILITY_TOL * scale))
-    status[loose] = Status.INACCURATE
-    prev = None if previous is None else np.where(np.isfinite(previous), previous, T)
-    objective = problem.evaluate(T, lb, ub, prev)
-    unique = np.ones(len(T), dtype=bool) if raw.unique is None else np.asarray(raw.unique)
-    infeas = raw.infeasibility if raw.infeasibility is not None else np.full(len(T), np.nan)
-    return TensionSolution(
-        tensions=T, status=status, unique=unique, objective=objective, residual=residual,
-        bound_violation=violation, iterations=raw.iterations, infeasibility=infeas,
-        setup_time=raw.setup_time, solve_time=raw.solve_time, backend=backend.name,
-        solver=backend.solver, solver_version=backend.version, problem=problem,
-        extras=raw.extras,
-    )
+    stacked = StandardForm.stack(forms)
+    # Every pose is judged by the smoothed problem, the first one included.
+    stacked = replace(stacked, problem=problem)
+    return RawResult(tensions, status, iterations, setup, solve, unique), stacked

@@ -1,49 +1,37 @@
 """Tension-distribution problems as data.
 
-A :class:`TensionProblem` says *what* to optimise; :meth:`TensionProblem.standard_form`
-turns it, for a robot and a batch of poses, into a :class:`StandardForm` that every
-backend understands::
+A :class:`TensionProblem` says *what* to optimise (an objective from
+:mod:`tension_opt.objectives`, weights, bounds, smoothing terms);
+:meth:`TensionProblem.standard_form` turns it, for a robot and a batch of poses, into a
+frozen :class:`StandardForm` that every backend understands::
 
     minimise   1/2 sum_i q_i T_i^2 + c^T T  [+ max_i v_i T_i]
     subject to A T = b,  lb <= T <= ub,  G T <= h
 
-with a diagonal Hessian ``q >= 0``. Objectives:
+with a diagonal Hessian ``q >= 0``. Smoothing for sequences adds
+``smoothing * ||T - T_prev||^2`` to the objective; a rate limit
+``|T - T_prev| <= rate_limit`` tightens the bounds.
 
-=============  ===============================================  ==========
-objective      minimises                                        form
-=============  ===============================================  ==========
-``min_sum``    ``sum_i w_i T_i``                                LP
-``min_norm``   ``sum_i w_i (T_i - r_i)^2`` (r = reference or 0)  QP
-``pinv``       ``sum_i T_i^2`` without bounds                    QP
-``min_max``    ``max_i w_i T_i``                                LP (epigraph)
-``centered``   ``sum_i w_i (T_i - (t_min_i + t_max_i)/2)^2``    QP
-=============  ===============================================  ==========
-
-Smoothing for sequences adds ``smoothing * ||T - T_prev||^2`` to the objective; a
-rate limit ``|T - T_prev| <= rate_limit`` tightens the bounds.
+Scaling: the form stays in newtons; backends that iterate solve it in units of a
+typical tension per pose (:meth:`StandardForm.scale`) so that their tolerances are
+relative. A form also measures any tensions against itself (equilibrium residual,
+bound violation, objective), which is how a solution's diagnostics are computed.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from enum import StrEnum
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.errors import InvalidInputError
+from tension_opt.objectives import Objective, get_objective
 from tension_opt.robot import CableRobot
 
-
-class Objective(StrEnum):
-    """Objective of a tension-distribution problem."""
-
-    MIN_SUM = "min_sum"
-    MIN_NORM = "min_norm"
-    PINV = "pinv"
-    MIN_MAX = "min_max"
-    CENTERED = "centered"
+__all__ = ["Objective", "StandardForm", "TensionProblem", "as_problem"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,7 +41,8 @@ class TensionProblem:
     Parameters
     ----------
     objective : Objective or str
-        One of ``"min_sum"``, ``"min_norm"``, ``"pinv"``, ``"min_max"``, ``"centered"``.
+        A name from :data:`tension_opt.objectives.OBJECTIVES` (``"min_sum"``,
+        ``"min_norm"``, ``"pinv"``, ``"min_max"``, ``"centered"``) or an objective.
     weights : array_like, shape (m,), optional
         Positive per-cable weights of the objective (default ones).
     reference : array_like, shape (m,) or (N, m), optional
@@ -69,7 +58,7 @@ class TensionProblem:
         Break non-unique optima (LP objectives) to the minimum 2-norm among the optima.
     """
 
-    objective: Objective | str = Objective.MIN_SUM
+    objective: Objective | str = "min_sum"
     weights: NDArray | None = None
     reference: NDArray | None = None
     t_min: NDArray | float | None = None
@@ -79,27 +68,27 @@ class TensionProblem:
     tie_break: bool = True
 
     def __post_init__(self) -> None:
-        try:
-            objective = Objective(self.objective)
-        except ValueError:
-            raise InvalidInputError(
-                f"unknown objective {self.objective!r}; choose one of "
-                f"{[o.value for o in Objective]}"
-            ) from None
+        objective = get_objective(self.objective)
         object.__setattr__(self, "objective", objective)
         if self.weights is not None:
-            weights = np.asarray(self.weights, dtype=float)
+            weights = _as_array("weights", self.weights)
             if weights.ndim != 1 or not np.isfinite(weights).all() or (weights <= 0).any():
                 raise InvalidInputError(f"weights must be positive and finite, got {weights}")
             object.__setattr__(self, "weights", weights)
-        if not np.isfinite(self.smoothing) or self.smoothing < 0:
-            raise InvalidInputError(f"smoothing must be >= 0, got {self.smoothing!r}")
+        if self.reference is not None:
+            reference = _as_array("reference", self.reference)
+            if not np.isfinite(reference).all():
+                raise InvalidInputError("reference tensions must be finite")
+            object.__setattr__(self, "reference", reference)
+        if not isinstance(self.smoothing, int | float | np.floating | np.integer) or not (
+                np.isfinite(self.smoothing) and self.smoothing >= 0):
+            raise InvalidInputError(f"smoothing must be a number >= 0, got {self.smoothing!r}")
         if self.rate_limit is not None:
-            rate = np.asarray(self.rate_limit, dtype=float)
+            rate = _as_array("rate_limit", self.rate_limit)
             if np.isnan(rate).any() or (rate <= 0).any():
                 raise InvalidInputError(f"rate_limit must be positive, got {rate}")
             object.__setattr__(self, "rate_limit", rate)
-        if self.objective is Objective.PINV and (
+        if not objective.bounded and (
             self.t_min is not None or self.t_max is not None or self.rate_limit is not None
         ):
             raise InvalidInputError("the pseudo-inverse ignores bounds: use min_norm with bounds")
@@ -108,7 +97,7 @@ class TensionProblem:
     @property
     def name(self) -> str:
         """Short label, e.g. ``"min_sum"`` or ``"min_sum+smooth(1e-3)"``."""
-        label = Objective(self.objective).value
+        label = self.objective.name
         if self.smoothing:
             label += f"+smooth({self.smoothing:g})"
         if self.rate_limit is not None:
@@ -123,9 +112,7 @@ class TensionProblem:
     @property
     def is_linear(self) -> bool:
         """True if the problem is an LP (its optimum may be non-unique)."""
-        return (
-            self.objective in (Objective.MIN_SUM, Objective.MIN_MAX) and not self.smoothing
-        )
+        return self.objective.linear and not self.smoothing
 
     def with_(self, **changes: Any) -> TensionProblem:
         """Copy with some fields replaced."""
@@ -135,12 +122,17 @@ class TensionProblem:
     def bounds(self, robot: CableRobot, N: int) -> tuple[NDArray, NDArray]:
         """Lower and upper tension bounds per pose, each of shape (N, m) (N)."""
         m = robot.m
-        if self.objective is Objective.PINV:
+        if not self.objective.bounded:
             return np.full((N, m), -np.inf), np.full((N, m), np.inf)
         lb = _per_pose("t_min", robot.t_min if self.t_min is None else self.t_min, N, m)
         ub = _per_pose("t_max", robot.t_max if self.t_max is None else self.t_max, N, m)
         if np.isnan(lb).any() or np.isinf(lb).any():
             raise InvalidInputError("t_min must be finite")
+        if (lb < 0).any():
+            k, i = (int(v) for v in np.argwhere(lb < 0)[0])
+            raise InvalidInputError(
+                f"t_min = {lb[k, i]} for cable {i} at pose {k} is negative: cables can only "
+                "pull; give t_min >= 0")
         if np.isnan(ub).any() or np.isneginf(ub).any():
             raise InvalidInputError("t_max must be a number or +inf")
         if (lb > ub).any():
@@ -150,7 +142,8 @@ class TensionProblem:
             )
         return lb, ub
 
-    def _weights(self, m: int) -> NDArray:
+    def cable_weights(self, m: int) -> NDArray:
+        """Per-cable weights of the objective, shape (m,) (ones by default)."""
         if self.weights is None:
             return np.ones(m)
         if self.weights.shape != (m,):
@@ -191,30 +184,13 @@ class TensionProblem:
         """Like :meth:`standard_form` from structure matrices ``A`` (N, n, m) and ``b`` (N, n)."""
         N, _, m = A.shape
         lb, ub = self.bounds(robot, N)
-        w = self._weights(m)
-        q = np.zeros((N, m))
-        c = np.zeros((N, m))
-        minmax = None
-        obj = self.objective
-        if obj is Objective.MIN_SUM:
-            c[:] = w
-        elif obj is Objective.MIN_MAX:
-            minmax = w
-        elif obj is Objective.PINV:
-            q[:] = 2.0
-        else:
-            if obj is Objective.CENTERED:
-                if not np.isfinite(ub).all():
-                    raise InvalidInputError(
-                        "the centred objective needs finite t_max for every cable"
-                    )
-                ref = 0.5 * (lb + ub)
-            elif self.reference is not None:
-                ref = _per_pose("reference", self.reference, N, m)
-            else:
-                ref = np.zeros((N, m))
-            q[:] = 2.0 * w
-            c[:] = -2.0 * w * ref
+        w = self.cable_weights(m)
+        self.objective.check(lb, ub)
+        reference = None
+        if self.objective.uses_reference and self.reference is not None:
+            reference = _per_pose("reference", self.reference, N, m)
+        terms = self.objective.terms(w, lb, ub, reference)
+        q, c = terms.q.copy(), terms.c.copy()
         prev = None
         if self.is_sequential:
             if previous is None:
@@ -231,36 +207,37 @@ class TensionProblem:
                 rate = np.broadcast_to(self.rate_limit, (m,))
                 lb = np.maximum(lb, prev - rate)
                 ub = np.minimum(ub, prev + rate)
-        return StandardForm(A=A, b=b, lb=lb, ub=ub, q=q, c=c, minmax=minmax, problem=self,
-                            previous=prev)
+        return StandardForm(A=A, b=b, lb=lb, ub=ub, q=q, c=c, minmax=terms.minmax,
+                            problem=self, previous=prev, reference=reference)
 
     def evaluate(self, tensions: NDArray, lb: NDArray, ub: NDArray,
-                 previous: NDArray | None = None) -> NDArray:
-        """Objective value of tensions (N, m) as the problem defines it (no constants dropped)."""
+                 previous: NDArray | None = None,
+                 reference: NDArray | None = None) -> NDArray:
+        """Objective value of tensions (N, m) as the problem defines it (no constants dropped).
+
+        ``previous`` (N, m) adds the smoothing term; ``reference`` (N, m) overrides the
+        problem's own reference.
+        """
         T = np.asarray(tensions, dtype=float)
-        w = self._weights(T.shape[1])
-        obj = self.objective
-        if obj is Objective.MIN_SUM:
-            value = T @ w
-        elif obj is Objective.MIN_MAX:
-            value = (T * w).max(axis=1)
-        elif obj is Objective.PINV:
-            value = (T**2).sum(axis=1)
-        else:
-            if obj is Objective.CENTERED:
-                ref = 0.5 * (lb + ub)
-            elif self.reference is not None:
-                ref = np.broadcast_to(self.reference, T.shape)
-            else:
-                ref = 0.0
-            value = ((T - ref) ** 2 * w).sum(axis=1)
+        N, m = T.shape
+        if reference is None and self.objective.uses_reference and self.reference is not None:
+            reference = _per_pose("reference", self.reference, N, m)
+        value = self.objective.evaluate(T, self.cable_weights(m), lb, ub, reference)
         if self.smoothing and previous is not None:
             value = value + self.smoothing * ((T - previous) ** 2).sum(axis=1)
         return value
 
 
+def _as_array(name: str, value: ArrayLike) -> NDArray:
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInputError(
+            f"{name} must be a number or an array of numbers, got {value!r}") from None
+
+
 def _per_pose(name: str, value: ArrayLike, N: int, m: int) -> NDArray:
-    arr = np.asarray(value, dtype=float)
+    arr = _as_array(name, value)
     try:
         return np.broadcast_to(arr, (N, m)).astype(float, copy=True)
     except ValueError:
@@ -269,9 +246,12 @@ def _per_pose(name: str, value: ArrayLike, N: int, m: int) -> NDArray:
         ) from None
 
 
-@dataclass(eq=False)
+@dataclass(frozen=True, eq=False)
 class StandardForm:
     """A batch of problems in the form every backend solves (see the module docstring).
+
+    Frozen: a stage that needs another form (the tie-break's optimal face, one pose of
+    a sequence) builds a new one.
 
     Attributes
     ----------
@@ -283,8 +263,15 @@ class StandardForm:
         Diagonal Hessian and linear cost.
     minmax : ndarray, shape (m,), optional
         Weights ``v`` of the ``max_i v_i T_i`` term.
+    problem : TensionProblem, optional
+        The problem the form was made from (for labels and the objective's value).
+    previous : ndarray, shape (N, m), optional
+        Previous tensions of a smoothed or rate-limited problem (N); NaN rows where a
+        pose of a sequence had none.
     G, h : ndarray, shapes (N, k, m) and (N, k), optional
         Extra inequality rows (used by the tie-break stage).
+    reference : ndarray, shape (N, m), optional
+        Reference tensions of an objective that uses one (N).
     """
 
     A: NDArray
@@ -298,6 +285,7 @@ class StandardForm:
     previous: NDArray | None = None
     G: NDArray | None = None
     h: NDArray | None = None
+    reference: NDArray | None = None
 
     @property
     def N(self) -> int:
@@ -331,7 +319,54 @@ class StandardForm:
         pick = lambda a: None if a is None else a[index]  # noqa: E731
         return StandardForm(self.A[index], self.b[index], self.lb[index], self.ub[index],
                             self.q[index], self.c[index], self.minmax, self.problem,
-                            pick(self.previous), pick(self.G), pick(self.h))
+                            pick(self.previous), pick(self.G), pick(self.h),
+                            pick(self.reference))
+
+    @classmethod
+    def stack(cls, forms: Sequence[StandardForm]) -> StandardForm:
+        """One form of the poses of several forms of one problem, in order.
+
+        Forms without previous tensions (the first pose of a sequence) get NaN rows;
+        extra inequality rows are not stacked (a tie-break stage is never stacked).
+        """
+        first = forms[0]
+        cat = lambda name: np.concatenate([getattr(f, name) for f in forms])  # noqa: E731
+        previous = None
+        if any(f.previous is not None for f in forms):
+            previous = np.concatenate([np.full((f.N, f.m), np.nan) if f.previous is None
+                                       else f.previous for f in forms])
+        reference = None
+        if any(f.reference is not None for f in forms):
+            reference = np.concatenate([np.zeros((f.N, f.m)) if f.reference is None
+                                        else f.reference for f in forms])
+        return cls(cat("A"), cat("b"), cat("lb"), cat("ub"), cat("q"), cat("c"),
+                   first.minmax, first.problem, previous, None, None, reference)
+
+    # ------------------------------------------------------- measuring tensions
+    def equilibrium_residual(self, tensions: NDArray) -> NDArray:
+        """``||A T - b||_2`` of tensions (N, m), shape (N,) (N, N m)."""
+        return np.linalg.norm(np.einsum("nij,nj->ni", self.A, tensions) - self.b, axis=1)
+
+    def bound_violation(self, tensions: NDArray) -> NDArray:
+        """Largest violation of ``lb <= T <= ub`` (N), shape (N,); 0 where they hold."""
+        over = np.maximum(self.lb - tensions, tensions - self.ub)
+        return np.maximum(np.nanmax(over, axis=1, initial=0.0), 0.0)
+
+    def objective_value(self, tensions: NDArray) -> NDArray:
+        """The problem's objective at tensions (N, m), shape (N,), smoothing included
+        where previous tensions are known; NaN without a problem."""
+        if self.problem is None:
+            return np.full(len(tensions), np.nan)
+        previous = None
+        if self.previous is not None:
+            previous = np.where(np.isfinite(self.previous), self.previous, tensions)
+        return self.problem.evaluate(tensions, self.lb, self.ub, previous, self.reference)
+
+    def tolerance_scale(self) -> NDArray:
+        """Scale (N) of the feasibility check per pose: the larger of ``||b||`` and the
+        largest finite lower bound, shape (N,)."""
+        return np.maximum(np.linalg.norm(self.b, axis=1),
+                          np.where(np.isfinite(self.lb), np.abs(self.lb), 0.0).max(axis=1))
 
     def scale(self) -> NDArray:
         """Typical tension per pose (N), used to normalise the solvers' units, shape (N,)."""
@@ -350,24 +385,24 @@ def as_problem(objective: str | Objective | TensionProblem, **fields: Any) -> Te
 
 def min_sum(**fields: Any) -> TensionProblem:
     """Minimum weighted sum of tensions (LP)."""
-    return TensionProblem(Objective.MIN_SUM, **fields)
+    return TensionProblem("min_sum", **fields)
 
 
 def min_norm(**fields: Any) -> TensionProblem:
     """Minimum weighted 2-norm (QP), optionally toward ``reference``."""
-    return TensionProblem(Objective.MIN_NORM, **fields)
+    return TensionProblem("min_norm", **fields)
 
 
 def pinv(**fields: Any) -> TensionProblem:
     """Moore-Penrose pseudo-inverse: minimum 2-norm, no bounds."""
-    return TensionProblem(Objective.PINV, **fields)
+    return TensionProblem("pinv", **fields)
 
 
 def min_max(**fields: Any) -> TensionProblem:
     """Minimise the largest (weighted) tension."""
-    return TensionProblem(Objective.MIN_MAX, **fields)
+    return TensionProblem("min_max", **fields)
 
 
 def centered(**fields: Any) -> TensionProblem:
     """Closest to the middle of [t_min, t_max] (needs finite t_max)."""
-    return TensionProblem(Objective.CENTERED, **fields)
+    return TensionProblem("centered", **fields)

@@ -4,11 +4,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from tension_opt.problems import StandardForm
+
+#: Relative tolerance (of the typical tension) on equilibrium and bounds of a solution.
+FEASIBILITY_TOL = 1e-6
 
 
 class Status(StrEnum):
@@ -38,6 +44,15 @@ class Status(StrEnum):
 
     def __str__(self) -> str:
         return self.value
+
+
+#: dtype of status arrays: wide enough for every :class:`Status` value.
+STATUS_DTYPE = np.dtype(f"<U{max(len(s.value) for s in Status)}")
+
+
+def status_array(N: int, fill: Status = Status.OPTIMAL) -> NDArray:
+    """Array of ``N`` statuses, all ``fill``, shape (N,) of :data:`STATUS_DTYPE`."""
+    return np.full(N, Status(fill).value, dtype=STATUS_DTYPE)
 
 
 @dataclass(eq=False)
@@ -73,6 +88,12 @@ class TensionSolution:
         The :class:`~tension_opt.problems.TensionProblem` solved.
     extras : dict
         Backend-specific information.
+    form : StandardForm, optional
+        The problems solved, against which the diagnostics were measured.
+
+    A solution is built by :meth:`from_form`, which measures the tensions against their
+    own problem form: a solver's "optimal" whose equilibrium or bounds miss
+    :data:`FEASIBILITY_TOL` of the typical tension becomes ``INACCURATE``.
     """
 
     tensions: NDArray
@@ -90,6 +111,65 @@ class TensionSolution:
     solver_version: str
     problem: Any = None
     extras: dict[str, Any] = field(default_factory=dict)
+    form: StandardForm | None = field(default=None, repr=False)
+
+    @classmethod
+    def from_form(
+        cls,
+        form: StandardForm,
+        tensions: NDArray,
+        status: NDArray,
+        *,
+        backend: str,
+        solver: str,
+        solver_version: str = "",
+        unique: NDArray | None = None,
+        iterations: NDArray | None = None,
+        infeasibility: NDArray | None = None,
+        setup_time: float = 0.0,
+        solve_time: float = 0.0,
+        extras: dict[str, Any] | None = None,
+    ) -> TensionSolution:
+        """A solution of ``form`` with its diagnostics measured against the form.
+
+        Parameters
+        ----------
+        form : StandardForm
+            The problems solved (N poses).
+        tensions : ndarray, shape (N, m)
+            Tensions (N) as returned; set to NaN where the status is not a solution.
+        status : array_like, shape (N,)
+            :class:`Status` values; ``OPTIMAL`` is downgraded to ``INACCURATE`` where the
+            equilibrium or bounds miss :data:`FEASIBILITY_TOL` of the typical tension.
+        backend, solver, solver_version : str
+            Labels of what solved it.
+        unique, iterations, infeasibility : ndarray, shape (N,), optional
+        setup_time, solve_time : float
+            Seconds.
+        extras : dict, optional
+        """
+        T = np.array(tensions, dtype=float)
+        status = np.array(status, dtype=STATUS_DTYPE)
+        solved = (status == Status.OPTIMAL) | (status == Status.INACCURATE)
+        T[~solved] = np.nan
+        residual = form.equilibrium_residual(T)
+        violation = form.bound_violation(T)
+        violation[~solved] = np.nan
+        scale = form.tolerance_scale()
+        loose = solved & ((residual > FEASIBILITY_TOL * scale)
+                          | (violation > FEASIBILITY_TOL * scale))
+        status[loose] = Status.INACCURATE
+        N = len(T)
+        return cls(
+            tensions=T, status=status,
+            unique=np.ones(N, dtype=bool) if unique is None else np.asarray(unique, dtype=bool),
+            objective=form.objective_value(T), residual=residual, bound_violation=violation,
+            iterations=iterations,
+            infeasibility=np.full(N, np.nan) if infeasibility is None else infeasibility,
+            setup_time=setup_time, solve_time=solve_time, backend=backend, solver=solver,
+            solver_version=solver_version, problem=form.problem, extras=extras or {},
+            form=form,
+        )
 
     @property
     def N(self) -> int:
@@ -132,12 +212,3 @@ class TensionSolution:
             f"status={counts}, non_unique={int((~self.unique).sum())}, "
             f"max_residual={np.nanmax(self.residual, initial=0.0):.3g})"
         )
-
-
-#: dtype of status arrays: wide enough for every :class:`Status` value.
-STATUS_DTYPE = np.dtype(f"<U{max(len(s.value) for s in Status)}")
-
-
-def status_array(N: int, fill: Status = Status.OPTIMAL) -> NDArray:
-    """Array of ``N`` statuses, all ``fill``, shape (N,) of :data:`STATUS_DTYPE`."""
-    return np.full(N, Status(fill).value, dtype=STATUS_DTYPE)

@@ -18,11 +18,11 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from tension_opt.backends.base import Backend, RawResult
 from tension_opt.backends.registry import get_backend
-from tension_opt.distribute import distribute, finish
+from tension_opt.backends.settings import solver_options
+from tension_opt.distribute import distribute
 from tension_opt.errors import InvalidInputError, UnsupportedProblemError
-from tension_opt.problems import Objective, as_problem
+from tension_opt.problems import as_problem
 from tension_opt.robot import CableRobot
 from tension_opt.solution import Status, TensionSolution, status_array
 
@@ -86,7 +86,7 @@ def smooth_jointly(robot: CableRobot, poses: ArrayLike, objective: Any = "min_su
         With the same status for every pose (the path is solved as a whole).
     """
     problem = as_problem(objective)
-    if problem.objective is Objective.MIN_MAX or problem.is_sequential:
+    if problem.objective == "min_max" or problem.is_sequential:
         raise UnsupportedProblemError(
             "smooth_jointly takes min_sum, min_norm, pinv or centered without its own smoothing")
     if weight < 0 or not np.isfinite(weight):
@@ -112,25 +112,14 @@ def smooth_jointly(robot: CableRobot, poses: ArrayLike, objective: Any = "min_su
     x, status, iterations = _solve_path(family, solver, P, q, Aeq, beq, lb, ub, options)
     elapsed = time.perf_counter() - t0
     T = np.full((N, m), np.nan) if x is None else x.reshape(N, m) * s
-    raw = RawResult(T, status_array(N, status),
-                    None if iterations is None else np.full(N, iterations), setup, elapsed,
-                    extras={"path_iterations": iterations, "weight": weight})
-    sol = finish(raw, problem, _JointLabel(backend), form.A, form.b, form.lb, form.ub, None)
+    sol = TensionSolution.from_form(
+        form, T, status_array(N, status), backend=f"joint:{backend}",
+        solver=solver or backend, iterations=None if iterations is None
+        else np.full(N, iterations), setup_time=setup, solve_time=elapsed,
+        extras={"path_iterations": iterations, "weight": weight})
     if not sol.success.all():  # the path is one problem: one inaccurate pose taints it all
         sol.status[sol.success] = Status.INACCURATE
     return sol
-
-
-class _JointLabel(Backend):
-    """Names the solver of a joint smoothing in its solution."""
-
-    def __init__(self, backend: str) -> None:
-        self.name = f"joint:{backend}"
-        self._solver = backend.partition(":")[2] or backend
-
-    @property
-    def solver(self) -> str:
-        return self._solver
 
 
 def _solve_path(family: str, solver: str, P: sp.csc_matrix, q: NDArray, Aeq: sp.csc_matrix,
@@ -139,11 +128,12 @@ def _solve_path(family: str, solver: str, P: sp.csc_matrix, q: NDArray, Aeq: sp.
     if family == "qpsolvers":
         import qpsolvers
 
-        from tension_opt.backends.qpsolvers_backend import HIGH_ACCURACY, _iterations
+        from tension_opt.backends.qpsolvers_backend import iterations_of
 
         name = solver or next(s for s in _SPARSE_SOLVERS if s in qpsolvers.available_solvers)
         get_backend(f"qpsolvers:{name}")  # raises a clear error if not installed
-        settings = HIGH_ACCURACY.get(name, {}) if options.get("accuracy") == "high" else {}
+        settings = solver_options(name, options.get("accuracy"), None,
+                                  options.get("solver_options"), per_pose=False)
         lbv = np.where(np.isfinite(lb), lb, -np.inf)
         ubv = np.where(np.isfinite(ub), ub, np.inf)
         problem = qpsolvers.Problem(P, q, None, None, Aeq, beq, lbv, ubv)
@@ -155,7 +145,7 @@ def _solve_path(family: str, solver: str, P: sp.csc_matrix, q: NDArray, Aeq: sp.
             return None, Status.SOLVER_ERROR, None
         if not sol.found or sol.x is None:
             return None, Status.SOLVER_ERROR, None
-        return sol.x, Status.OPTIMAL, _iterations(name, sol.extras or {})
+        return sol.x, Status.OPTIMAL, iterations_of(sol.extras or {})
     if family == "cvxpy":
         import cvxpy as cp
 

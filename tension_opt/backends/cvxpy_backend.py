@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tension_opt.backends.base import Backend, RawResult, pose_loop_result
+from tension_opt.backends.settings import solver_options
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.problems import StandardForm
 from tension_opt.solution import Status
@@ -24,22 +25,6 @@ try:
 except ImportError:  # pragma: no cover - cvxpy is a runtime dependency
     cp = None  # type: ignore[assignment]
 
-#: Solver options for accuracy="high", in each solver's own names (as cvxpy passes them).
-HIGH_ACCURACY: dict[str, dict[str, Any]] = {
-    "CLARABEL": {"tol_gap_abs": 1e-10, "tol_gap_rel": 1e-10, "tol_feas": 1e-10},
-    "OSQP": {"eps_abs": 1e-10, "eps_rel": 1e-10, "max_iter": 200000, "polish": True},
-    "SCS": {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iters": 100000},
-    "PIQP": {"eps_abs": 1e-10, "eps_rel": 1e-11, "eps_duality_gap_abs": 1e-10,
-             "eps_duality_gap_rel": 1e-10},
-    "PROXQP": {"eps_abs": 1e-10, "eps_rel": 0.0},
-    "DAQP": {"primal_tol": 1e-10},
-    "HIGHS": {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10},
-    "ECOS": {"abstol": 1e-10, "reltol": 1e-10, "feastol": 1e-10},
-    "SCIPY": {"scipy_options": {"primal_feasibility_tolerance": 1e-10,
-                                "dual_feasibility_tolerance": 1e-10}},
-}
-#: Options always passed: ProxQP otherwise runs millions of iterations on an infeasible pose.
-ALWAYS: dict[str, dict[str, Any]] = {"PROXQP": {"max_iter": 200}}
 #: Solvers that take linear programs only.
 LP_ONLY = {"SCIPY", "GLOP", "CBC", "GLPK"}
 #: QP solvers unsuited to LPs: PROXQP failed on a quarter of the study's min-sum poses.
@@ -181,10 +166,9 @@ class CvxpyBackend(Backend):
         N, m = form.N, form.m
         s = form.scale()
         sigma = s**2 if form.q.any() else s
-        settings = dict(HIGH_ACCURACY.get(self._solver, {})) if options.get(
-            "accuracy") == "high" else {}
-        settings = {**ALWAYS.get(self._solver, {}), **settings,
-                    **options.get("solver_options", {})}
+        settings = solver_options(self._solver, options.get("accuracy"),
+                                  options.get("time_limit"), options.get("solver_options"),
+                                  interface="cvxpy")
         warm = bool(options.get("warm_start", False))
         # Joint stopping criteria loosen per-pose accuracy, so high accuracy goes pose by pose.
         default_k = 1 if options.get("accuracy") == "high" else 16

@@ -16,6 +16,7 @@ import numpy as np
 
 from tension_opt.backends._dense import DenseBatch, dense_batch
 from tension_opt.backends.base import Backend, RawResult, pose_loop_result
+from tension_opt.backends.settings import solver_options
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.problems import StandardForm
 from tension_opt.solution import Status
@@ -25,20 +26,8 @@ try:
 except ImportError:  # pragma: no cover - qpsolvers is a runtime dependency
     qpsolvers = None  # type: ignore[assignment]
 
-#: Solver options for accuracy="high", in each solver's own names.
-HIGH_ACCURACY: dict[str, dict[str, Any]] = {
-    "daqp": {"primal_tol": 1e-10},
-    "osqp": {"eps_abs": 1e-10, "eps_rel": 1e-10, "polishing": True, "max_iter": 200000},
-    "proxqp": {"eps_abs": 1e-10, "eps_rel": 0.0},
-    "piqp": {"eps_abs": 1e-10, "eps_rel": 1e-11, "eps_duality_gap_abs": 1e-10,
-             "eps_duality_gap_rel": 1e-10},
-    "clarabel": {"tol_gap_abs": 1e-10, "tol_gap_rel": 1e-10, "tol_feas": 1e-10},
-    "highs": {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10},
-    "scs": {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iters": 100000},
-    "quadprog": {},
-}
-#: Options always passed: ProxQP otherwise runs millions of iterations on an infeasible pose.
-ALWAYS: dict[str, dict[str, Any]] = {"proxqp": {"max_iter": 200}}
+#: Solvers this backend knows (their options are in :mod:`tension_opt.backends.settings`).
+KNOWN = ("daqp", "osqp", "proxqp", "piqp", "clarabel", "highs", "scs", "quadprog")
 #: Solvers that need a positive-definite Hessian (no LPs, no epigraph variable).
 _NEEDS_PD = {"quadprog"}
 #: Proximal QP solvers that crawl on LPs (zero Hessian): ProxQP took about 1 s per pose
@@ -49,7 +38,7 @@ _DAQP_EXIT = {1: Status.OPTIMAL, 2: Status.OPTIMAL, -1: Status.INFEASIBLE,
 _BIG = 1e30  # DAQP's infinity
 
 
-def _iterations(solver: str, extras: dict[str, Any]) -> int | None:
+def iterations_of(extras: dict[str, Any]) -> int | None:
     """Iteration count from a qpsolvers Solution's extras (None where not reported)."""
     info = extras.get("info")
     for obj in (info, extras):
@@ -109,10 +98,8 @@ class QpsolversBackend(Backend):
     def solve_stage(self, form: StandardForm, **options: Any) -> RawResult:
         t0 = time.perf_counter()
         batch = dense_batch(form)
-        settings = dict(HIGH_ACCURACY[self._solver]) if options.get(
-            "accuracy") == "high" else {}
-        settings = {**ALWAYS.get(self._solver, {}), **settings,
-                    **options.get("solver_options", {})}
+        settings = solver_options(self._solver, options.get("accuracy"),
+                                  options.get("time_limit"), options.get("solver_options"))
         warm = bool(options.get("warm_start", False))
         setup = time.perf_counter() - t0
         if self._solver == "daqp":
@@ -142,7 +129,7 @@ class QpsolversBackend(Backend):
             except Exception:
                 status[i] = Status.SOLVER_ERROR
                 continue
-            count = _iterations(self._solver, sol.extras or {})
+            count = iterations_of(sol.extras or {})
             has_iters &= count is not None
             iters[i] = count or 0
             if sol.found and sol.x is not None and np.isfinite(sol.x).all():
@@ -202,8 +189,7 @@ def available() -> list[str]:
     """Registry names of the installed qpsolvers solvers this package knows."""
     if qpsolvers is None:
         return []
-    return [f"qpsolvers:{s}" for s in sorted(qpsolvers.available_solvers)
-            if s in HIGH_ACCURACY]
+    return [f"qpsolvers:{s}" for s in sorted(qpsolvers.available_solvers) if s in KNOWN]
 
 
 def make(solver: str | None) -> Backend:

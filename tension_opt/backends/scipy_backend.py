@@ -15,13 +15,13 @@ from scipy.optimize import linprog
 
 from tension_opt.backends._dense import dense_batch
 from tension_opt.backends.base import Backend, RawResult, pose_loop_result
+from tension_opt.backends.settings import solver_options
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.problems import StandardForm
 from tension_opt.solution import Status
 
 _LINPROG_STATUS = {0: Status.OPTIMAL, 1: Status.MAX_ITER, 2: Status.INFEASIBLE,
                    3: Status.UNBOUNDED, 4: Status.INACCURATE}
-HIGH_ACCURACY = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
 
 
 class ScipyHighsBackend(Backend):
@@ -41,9 +41,8 @@ class ScipyHighsBackend(Backend):
     def solve_stage(self, form: StandardForm, **options: Any) -> RawResult:
         t0 = time.perf_counter()
         batch = dense_batch(form)
-        settings = dict(HIGH_ACCURACY) if options.get("accuracy") == "high" else {}
-        if options.get("time_limit"):
-            settings["time_limit"] = float(options["time_limit"])
+        settings = solver_options("highs", options.get("accuracy"), options.get("time_limit"),
+                                  options.get("solver_options"), interface="scipy")
         N, k = batch.N, batch.k
         x_all, status, iters = pose_loop_result(N, k)
         setup = time.perf_counter() - t0
