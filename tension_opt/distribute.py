@@ -11,6 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.backends.base import Backend, RawResult
 from tension_opt.backends.registry import choose_backend
+from tension_opt.backends.settings import check_options
 from tension_opt.problems import Objective, StandardForm, TensionProblem, as_problem
 from tension_opt.robot import CableRobot
 from tension_opt.solution import Status, TensionSolution, status_array
@@ -51,13 +52,16 @@ def distribute(
         solved in order, each against the solution of the pose before (the first
         against ``previous``, or unsmoothed when None).
     **options
-        Passed to the backend (e.g. ``accuracy="high"``, ``time_limit``).
+        Passed to the backend: ``accuracy`` (``"default"`` or ``"high"``), ``time_limit``
+        (s), ``solver_options`` (a dict in the solver's own names), ``warm_start``,
+        ``batch_size`` (:mod:`tension_opt.backends.settings`); anything else is an error.
 
     Returns
     -------
     TensionSolution
         Per-pose tensions (N, m), status, uniqueness, objective and residuals.
     """
+    check_options(options)
     problem = as_problem(objective)
     p = robot.as_poses(poses)
     t0 = time.perf_counter()

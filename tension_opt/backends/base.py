@@ -1,4 +1,9 @@
-"""Backend interface and the shared tie-break of non-unique LP optima."""
+"""The backend interface: :class:`Backend` and the :class:`RawResult` it returns.
+
+A backend solves batches of :class:`~tension_opt.problems.StandardForm`. Generic
+solvers implement one stage (:meth:`Backend.solve_stage`); :meth:`Backend.solve` adds
+the two-stage tie-break of non-unique LP optima (:mod:`tension_opt.backends.tiebreak`).
+"""
 
 from __future__ import annotations
 
@@ -9,13 +14,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tension_opt.backends import _lowdim
-from tension_opt.errors import InvalidInputError
+from tension_opt.backends.tiebreak import low_dim_face_solve, lp_optimum_is_unique, optimal_face
 from tension_opt.problems import StandardForm
 from tension_opt.solution import Status, status_array
-
-# Relative tolerance for "at a bound" in the uniqueness test of LP optima.
-ACTIVE_TOL = 1e-6
 
 
 @dataclass
@@ -103,140 +104,7 @@ class Backend:
         raise NotImplementedError
 
 
-def lp_optimum_is_unique(form: StandardForm, T: NDArray, _square: bool = True) -> NDArray:
-    """Whether LP optima ``T`` (N, m) are the only optima of their problems, shape (N,).
-
-    The optimum is unique iff no direction ``d != 0`` keeps equilibrium, the objective
-    and the active constraints: ``A d = 0``, ``c.d = 0`` (or, for min-max, ``v_i d_i <= 0``
-    for the cables at the maximum), ``d_i >= 0`` at a lower bound, ``d_i <= 0`` at an
-    upper bound. That cone lives in a space of dimension ``m - rank``: tested by sign
-    checks in dimension 1 and by a small LP beyond.
-    """
-    N, m = T.shape
-    scale = form.scale()
-    tol = ACTIVE_TOL * scale[:, None]
-    at_lb = np.isfinite(form.lb) & (T <= form.lb + tol)
-    at_ub = np.isfinite(form.ub) & (T >= form.ub - tol)
-    if form.minmax is not None:
-        vals = T * form.minmax
-        at_ub |= vals >= vals.max(axis=1, keepdims=True) - tol
-        E = form.A
-    else:
-        E = np.concatenate([form.A, form.c[:, None, :]], axis=1)
-    if form.G is not None:  # rows of G at equality behave as upper bounds on G d
-        raise InvalidInputError("the uniqueness test does not take extra inequality rows")
-    unique = np.ones(N, dtype=bool)
-    if _square and E.shape[1] == m:
-        # Square: a determinant far from zero against the rows' lengths (Hadamard's
-        # bound) settles most poses without a singular value decomposition.
-        ratio = np.abs(np.linalg.det(E)) / np.prod(np.linalg.norm(E, axis=2), axis=1)
-        doubt = np.flatnonzero(~(ratio > 1e-8))
-        if not len(doubt):
-            return unique
-        unique[doubt] = lp_optimum_is_unique(form.subset(doubt), T[doubt], _square=False)
-        return unique
-    s = np.linalg.svd(E, compute_uv=False)
-    rank = (s > 1e-10 * s[:, :1]).sum(axis=1)
-    for k in np.unique(rank):
-        dim = m - int(k)
-        if dim == 0:
-            continue
-        sel = np.flatnonzero(rank == k)
-        vt = np.linalg.svd(E[sel], full_matrices=True)[2]
-        basis = np.swapaxes(vt[:, int(k):, :], 1, 2)  # (s, m, dim)
-        lower, upper = at_lb[sel], at_ub[sel]
-        if dim == 1:
-            v = basis[..., 0]
-            big = np.abs(v) > 1e-9 * np.abs(v).max(axis=1, keepdims=True)
-            plus = ~((lower & big & (v < 0)) | (upper & big & (v > 0))).any(axis=1)
-            minus = ~((lower & big & (v > 0)) | (upper & big & (v < 0))).any(axis=1)
-            unique[sel] = ~(plus | minus)
-            continue
-        for row, j in enumerate(sel):
-            unique[j] = not _cone_has_ray(basis[row], lower[row], upper[row])
-    return unique
-
-
-def _cone_has_ray(basis: NDArray, lower: NDArray, upper: NDArray) -> bool:
-    """Whether ``{z : (B z)_i >= 0 at lower, (B z)_i <= 0 at upper}`` contains ``z != 0``."""
-    from scipy.optimize import linprog
-
-    rows = np.concatenate([-basis[lower], basis[upper]])  # rows . z <= 0
-    dim = basis.shape[1]
-    if len(rows) == 0:
-        return True
-    for j in range(dim):
-        for sign in (1.0, -1.0):
-            cost = np.zeros(dim)
-            cost[j] = -sign
-            res = linprog(cost, A_ub=rows, b_ub=np.zeros(len(rows)),
-                          bounds=[(-1.0, 1.0)] * dim, method="highs")
-            if res.status == 0 and -res.fun > 1e-9:
-                return True
-    return False
-
-
-def optimal_face(form: StandardForm, T: NDArray) -> StandardForm:
-    """Stage-two problem: minimum 2-norm over the optimal set of an LP solved at ``T``.
-
-    The optimal value is relaxed by a relative ``1e-9`` so that a solver's rounding
-    cannot make the face empty.
-    """
-    N, m = T.shape
-    scale = form.scale()
-    if form.minmax is not None:
-        fstar = (T * form.minmax).max(axis=1)
-        cap = (fstar + 1e-9 * np.abs(fstar) + 1e-12 * scale)[:, None] / form.minmax
-        ub = np.minimum(form.ub, cap)
-        return StandardForm(form.A, form.b, form.lb, ub, np.ones((N, m)), np.zeros((N, m)),
-                            None, form.problem, form.previous)
-    fstar = np.einsum("nm,nm->n", form.c, T)
-    slack = 1e-9 * np.abs(fstar) + 1e-12 * scale * np.linalg.norm(form.c, axis=1)
-    return StandardForm(form.A, form.b, form.lb, form.ub, np.ones((N, m)), np.zeros((N, m)),
-                        None, form.problem, form.previous, G=form.c[:, None, :],
-                        h=(fstar + slack)[:, None])
-
-
 def pose_loop_result(N: int, m: int) -> tuple[NDArray, NDArray, NDArray]:
     """Empty tensions (NaN), statuses (NOT_RUN) and iterations (0) for a pose loop."""
     return np.full((N, m), np.nan), status_array(N, Status.NOT_RUN), np.zeros(
         N, dtype=int)
-
-
-def low_dim_face_solve(form: StandardForm, T: NDArray) -> NDArray | None:
-    """Minimum-norm point of the optimal face exactly, when that face is at most 2-D.
-
-    Used by LP-only backends for the tie-break. Returns None if some face is larger.
-    """
-    face = optimal_face(form, T)
-    _N, m = T.shape
-    if face.G is not None:
-        E = np.concatenate([face.A, face.G], axis=1)
-        _, s, vt = np.linalg.svd(E, full_matrices=True)
-    else:
-        _, s, vt = np.linalg.svd(face.A, full_matrices=True)
-    rank = (s > 1e-10 * s[:, :1]).sum(axis=1)
-    dims = m - rank
-    if dims.max() > 2:
-        return None
-    out = T.copy()
-    scale = form.scale()
-    for dim in (1, 2):
-        sel = np.flatnonzero(dims == dim)
-        if not len(sel):
-            continue
-        Z = np.swapaxes(vt[sel, m - dim:, :], 1, 2)
-        T0 = T[sel]
-        lb, ub = face.lb[sel], face.ub[sel]
-        if dim == 1:
-            n = Z[..., 0]
-            lo, hi = _lowdim.interval(T0, n, lb, ub, scale[sel])
-            lo, hi = _lowdim.widen(lo, hi, n, scale[sel])
-            t = np.clip(-np.einsum("nm,nm->n", T0, n) / np.einsum("nm,nm->n", n, n), lo, hi)
-            out[sel] = T0 + t[:, None] * n
-        else:
-            z, feasible = _lowdim.qp_2d(T0, Z, lb, ub, np.ones_like(T0), np.zeros_like(T0),
-                                        scale[sel])
-            good = sel[feasible]
-            out[good] = T0[feasible] + np.einsum("nmi,ni->nm", Z[feasible], z[feasible])
-    return out

@@ -21,6 +21,9 @@ from tension_opt.errors import InvalidInputError
 
 #: Accuracy names every backend accepts.
 ACCURACIES: tuple[str, ...] = ("default", "high")
+#: Keyword options every backend accepts (a backend ignores those it has no use for).
+OPTIONS: tuple[str, ...] = ("accuracy", "time_limit", "solver_options", "warm_start",
+                            "batch_size")
 
 
 @dataclass(frozen=True)
@@ -88,6 +91,30 @@ def check_accuracy(accuracy: object) -> str:
         raise InvalidInputError(
             f"accuracy must be one of {list(ACCURACIES)}, got {accuracy!r}")
     return str(accuracy)
+
+
+def check_options(options: Mapping[str, Any]) -> None:
+    """Check backend options by name and value.
+
+    Raises
+    ------
+    InvalidInputError
+        For an unknown option (listing the known ones), an unknown accuracy, a time
+        limit that is not a positive number, or ``solver_options`` that is not a dict.
+    """
+    unknown = sorted(set(options) - set(OPTIONS))
+    if unknown:
+        raise InvalidInputError(
+            f"unknown option(s) {unknown}; backends take {list(OPTIONS)} (a solver's own "
+            "settings go in solver_options={...})")
+    check_accuracy(options.get("accuracy"))
+    limit = options.get("time_limit")
+    if limit is not None and not (isinstance(limit, int | float) and limit > 0):
+        raise InvalidInputError(f"time_limit must be a positive number of seconds, got {limit!r}")
+    user = options.get("solver_options")
+    if user is not None and not isinstance(user, Mapping):
+        raise InvalidInputError(
+            f"solver_options must be a dict of the solver's own options, got {user!r}")
 
 
 def solver_options(solver: str, accuracy: object = "default",

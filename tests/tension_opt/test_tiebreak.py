@@ -1,0 +1,67 @@
+"""The tie-break of non-unique LP optima on hand-made problems with known answers."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import tension_opt as to
+from tension_opt.backends.tiebreak import (
+    low_dim_face_solve,
+    lp_optimum_is_unique,
+    optimal_face,
+)
+from tension_opt.problems import StandardForm
+
+
+def _form(c: list[float], minmax: bool = False) -> StandardForm:
+    """Three cables, one equation ``T1 + T2 + T3 = 6`` with ``T >= 0``: a 2-D null space."""
+    A = np.ones((1, 1, 3))
+    b = np.array([[6.0]])
+    lb, ub = np.zeros((1, 3)), np.full((1, 3), np.inf)
+    if minmax:
+        return StandardForm(A, b, lb, ub, np.zeros((1, 3)), np.zeros((1, 3)),
+                            minmax=np.ones(3))
+    return StandardForm(A, b, lb, ub, np.zeros((1, 3)), np.array([c]))
+
+
+def test_a_vertex_of_a_strict_cost_is_unique() -> None:
+    # min T1 + 2 T2 + 3 T3: the only optimum is (6, 0, 0).
+    form = _form([1.0, 2.0, 3.0])
+    assert lp_optimum_is_unique(form, np.array([[6.0, 0.0, 0.0]])).tolist() == [True]
+
+
+def test_a_flat_cost_has_a_whole_face_of_optima_broken_to_its_minimum_norm() -> None:
+    # min T1 + T2 + T3 on the simplex: every point is optimal; min norm is (2, 2, 2).
+    form = _form([1.0, 1.0, 1.0])
+    vertex = np.array([[6.0, 0.0, 0.0]])
+    assert lp_optimum_is_unique(form, vertex).tolist() == [False]
+    np.testing.assert_allclose(low_dim_face_solve(form, vertex), [[2.0, 2.0, 2.0]],
+                               atol=1e-9)
+    face = optimal_face(form, vertex)
+    assert face.G is not None and face.G.shape == (1, 1, 3)  # c.T <= c.T* (+ slack)
+    assert (face.q == 1.0).all() and (face.c == 0.0).all()
+
+
+def test_an_edge_of_optima_is_broken_on_that_edge() -> None:
+    # min T1 + T2 + 2 T3: optima are the edge T1 + T2 = 6, T3 = 0; min norm (3, 3, 0).
+    form = _form([1.0, 1.0, 2.0])
+    vertex = np.array([[0.0, 6.0, 0.0]])
+    assert lp_optimum_is_unique(form, vertex).tolist() == [False]
+    np.testing.assert_allclose(low_dim_face_solve(form, vertex), [[3.0, 3.0, 0.0]],
+                               atol=1e-9)
+
+
+def test_min_max_ties_are_detected() -> None:
+    # min max T_i on the simplex: the unique optimum is the centre (2, 2, 2).
+    form = _form([0.0, 0.0, 0.0], minmax=True)
+    assert lp_optimum_is_unique(form, np.array([[2.0, 2.0, 2.0]])).tolist() == [True]
+
+
+def test_every_backend_breaks_the_study_robots_tie_the_same_way() -> None:
+    # At the pond centre the min-sum LP has a segment of optima; the published
+    # tensions (4714.6 N each) are its minimum-norm point.
+    robot = to.presets.algae_harvester()
+    for backend in ("closed_form", "scipy:highs", "qpsolvers:daqp", "cvxpy:CLARABEL"):
+        sol = to.distribute(robot, [[0.0, 0.0, 0.0]], "min_sum", backend=backend)
+        assert sol.unique.tolist() == [False], backend
+        np.testing.assert_allclose(sol.tensions[0], 4714.6, atol=0.15)
