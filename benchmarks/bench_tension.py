@@ -27,7 +27,7 @@ import numpy as np
 
 import tension_opt as to
 from tension_opt.backends import get_backend
-from tension_opt.backends._dense import dense_batch
+from tension_opt.backends.dense import dense_batch
 
 # (what was timed, number of poses or "", result)
 Row = tuple[str, int | str, str]

@@ -1,6 +1,6 @@
 """Backend ``cvxpy[:SOLVER]``: a cvxpy problem compiled once with Parameters, re-solved per pose.
 
-The problem is built in scaled units (see :mod:`tension_opt.backends._dense`) and is
+The problem is built in scaled units (see :mod:`tension_opt.backends.dense`) and is
 DPP-compliant, so cvxpy canonicalises it once per structure (sizes, objective kind,
 pattern of finite bounds) and each pose only updates parameter values.
 """

@@ -13,7 +13,7 @@ import numpy as np
 import scipy
 from scipy.optimize import linprog
 
-from tension_opt.backends._dense import dense_batch
+from tension_opt.backends.dense import dense_batch
 from tension_opt.backends.base import Backend, RawResult, pose_loop_result
 from tension_opt.backends.settings import solver_options
 from tension_opt.errors import BackendNotAvailableError
