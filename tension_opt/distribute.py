@@ -73,6 +73,9 @@ def distribute(
     # For a sequence this is the shape of every smoothed pose, to choose and check with.
     form = problem.standard_form_from(robot, A, b, np.zeros(robot.m) if sequential else prev)
     chosen = choose_backend(backend, form)
+    if form.N == 0:  # an empty batch is an empty solution, whatever the backend
+        empty = RawResult(np.empty((0, robot.m)), status_array(0), np.zeros(0, dtype=int))
+        return solution_of(form, empty, chosen, setup_time=geometry_time)
     if sequential:
         raw, form = _solve_sequence(chosen, problem, robot, A, b, prev, options)
     else:

@@ -20,10 +20,12 @@ from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
+import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.errors import InvalidInputError
 from tension_opt.kinds import MotionPattern, get_kind
+from tension_opt.solution import STATUS_DTYPE, Status
 
 RobotKind = Literal["point3", "planar_point2", "planar3", "spatial6"]
 
@@ -409,8 +411,8 @@ class CableRobot:
             active[idx[done]] = False
         lk = self.cable_geometry(x).lengths
         residual = np.sqrt(np.mean((lk - L) ** 2, axis=1))
-        met = np.where(residual > consistency_tol, "inconsistent", "converged")
-        status = np.where(active, "not_converged", met)
+        met = np.where(residual > consistency_tol, Status.INCONSISTENT, Status.CONVERGED)
+        status = np.where(active, Status.NOT_CONVERGED, met).astype(STATUS_DTYPE)
         return StraightForwardKinematicsResult(x, residual, iterations, status)
 
     def displace(self, x: NDArray, step: NDArray) -> NDArray:
@@ -495,4 +497,13 @@ class StraightForwardKinematicsResult:
     @property
     def success(self) -> NDArray:
         """Boolean mask of poses whose lengths were met."""
-        return self.status == "converged"
+        return np.asarray(self.status == Status.CONVERGED, dtype=bool)
+
+    def to_frame(self) -> pd.DataFrame:
+        """Tidy table, one row per pose: status, pose coordinates, residual, iterations."""
+        frame = pd.DataFrame(self.poses, columns=[f"q{i}" for i in range(self.poses.shape[1])])
+        frame.insert(0, "pose", np.arange(len(self.poses)))
+        frame.insert(1, "status", self.status)
+        frame["residual"] = self.residual
+        frame["iterations"] = self.iterations
+        return frame
