@@ -7,6 +7,7 @@ pattern of finite bounds) and each pose only updates parameter values.
 
 from __future__ import annotations
 
+import threading
 import time
 import warnings
 from typing import Any
@@ -105,11 +106,25 @@ class _Compiled:
             self.h.value = form.h[rows] / s[:, None]
 
 
-_CACHE: dict[tuple[Any, ...], _Compiled] = {}
+# Compiled problems hold the parameter values of the call in progress, so each thread
+# keeps its own: calls from several threads never share a problem.
+_THREAD = threading.local()
+
+
+def _cache() -> dict[tuple[Any, ...], _Compiled]:
+    """This thread's compiled problems, by structure."""
+    cache = getattr(_THREAD, "cache", None)
+    if cache is None:
+        cache = _THREAD.cache = {}
+    return cache
 
 
 class CvxpyBackend(Backend):
-    """Any installed cvxpy solver; the problem is compiled once and re-solved per pose."""
+    """Any installed cvxpy solver; the problem is compiled once and re-solved per pose.
+
+    Thread safety: compiled problems are kept per thread, so one backend instance can
+    be called from several threads at once.
+    """
 
     warm_start = True
 
@@ -148,11 +163,12 @@ class CvxpyBackend(Backend):
                None if form.minmax is None else form.minmax.tobytes(),
                None if form.G is None else form.G.shape[1:], lb_mask.shape,
                lb_mask.tobytes(), ub_mask.tobytes())
-        if key in _CACHE:
-            return _CACHE[key], 0.0
+        cache = _cache()
+        if key in cache:
+            return cache[key], 0.0
         t0 = time.perf_counter()
         compiled = _Compiled(form, lb_mask, ub_mask)
-        _CACHE[key] = compiled
+        cache[key] = compiled
         return compiled, time.perf_counter() - t0
 
     def solve_stage(self, form: StandardForm, **options: Any) -> RawResult:
