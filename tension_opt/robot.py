@@ -63,12 +63,34 @@ class CableProperties:
 
 
 def _check_positive(name: str, value: float) -> None:
-    if not np.isfinite(value) or value <= 0:
+    if not _is_number(value) or not np.isfinite(value) or value <= 0:
         raise InvalidInputError(f"{name} must be a positive finite number, got {value!r}")
 
 
+def _is_number(value: object) -> bool:
+    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
+        value, bool)
+
+
+def as_float_array(name: str, value: ArrayLike) -> NDArray:
+    """``value`` as a float array, or the package's error naming the argument.
+
+    Raises
+    ------
+    InvalidInputError
+        If numpy cannot make a float array of it (strings, ragged nesting, None).
+    """
+    if value is None or isinstance(value, str | bytes):
+        raise InvalidInputError(f"{name} must be numbers, got {value!r}")
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInputError(
+            f"{name} must be a rectangular array of numbers, got {value!r}"[:300]) from None
+
+
 def _as_finite(name: str, value: ArrayLike, shape: tuple[int, ...] | None = None) -> NDArray:
-    arr = np.asarray(value, dtype=float)
+    arr = as_float_array(name, value)
     if shape is not None and arr.shape != shape:
         raise InvalidInputError(f"{name} must have shape {shape}, got {arr.shape}")
     bad = ~np.isfinite(arr)
@@ -76,6 +98,16 @@ def _as_finite(name: str, value: ArrayLike, shape: tuple[int, ...] | None = None
         idx = tuple(int(i) for i in np.argwhere(bad)[0])
         raise InvalidInputError(f"{name} has a non-finite value {arr[idx]!r} at index {idx}")
     return arr
+
+
+def _per_cable(name: str, value: ArrayLike, m: int) -> NDArray:
+    arr = as_float_array(name, value)
+    try:
+        return np.broadcast_to(arr, (m,)).copy()
+    except ValueError:
+        raise InvalidInputError(
+            f"{name} must be a number or have shape ({m},) (one per cable), got "
+            f"shape {arr.shape}") from None
 
 
 @dataclass(frozen=True, eq=False)
@@ -131,11 +163,11 @@ class CableRobot:
         m = anchors.shape[0]
         attachments = _as_finite("attachments", self.attachments, (m, 3))
         _check_positive("mass", self.mass)
-        if not np.isfinite(self.g) or self.g < 0:
+        if not _is_number(self.g) or not np.isfinite(self.g) or self.g < 0:
             raise InvalidInputError(f"g must be finite and >= 0, got {self.g!r}")
         com = _as_finite("com", self.com, (3,))
-        t_min = np.broadcast_to(np.asarray(self.t_min, dtype=float), (m,)).copy()
-        t_max = np.broadcast_to(np.asarray(self.t_max, dtype=float), (m,)).copy()
+        t_min = _per_cable("t_min", self.t_min, m)
+        t_max = _per_cable("t_max", self.t_max, m)
         if np.isnan(t_min).any() or np.isinf(t_min).any():
             raise InvalidInputError(f"t_min must be finite, got {t_min}")
         if np.isnan(t_max).any() or np.isneginf(t_max).any():
@@ -201,7 +233,7 @@ class CableRobot:
 
         A single pose of shape (n,) becomes a batch of one.
         """
-        arr = np.asarray(poses, dtype=float)
+        arr = as_float_array("poses", poses)
         if arr.ndim == 1:
             arr = arr[None, :]
         if arr.ndim != 2 or arr.shape[1] != self.dof:
