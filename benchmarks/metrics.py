@@ -237,7 +237,8 @@ def thesis_sag(robot: CableRobot, poses: ArrayLike, tensions: ArrayLike) -> dict
     Parameters
     ----------
     robot : CableRobot
-        A ``"point3"`` robot with ``cable`` properties.
+        A point mass moving in space (a non-rotating pattern with positions along x, y
+        and z, e.g. ``"point3"``) with ``cable`` properties; NaN columns otherwise.
     poses : array_like, shape (N, 3)
         Platform positions (m).
     tensions : array_like, shape (N, m)
@@ -257,22 +258,25 @@ def thesis_sag(robot: CableRobot, poses: ArrayLike, tensions: ArrayLike) -> dict
     out = dict.fromkeys(keys, float("nan"))
     T = np.asarray(tensions, dtype=float)
     ok = np.isfinite(T).all(axis=1)
-    if robot.kind != "point3" or robot.cable is None or not ok.any():
+    # The convention places each cable in its vertical plane from one platform point: a
+    # point mass moving in space.
+    pattern = robot.pattern
+    if (pattern.rotates or pattern.position_axes != (0, 1, 2) or robot.cable is None
+            or not ok.any()):
         return out
     try:
         from catenary.solve import solve_length
     except ImportError:
         return out
-    p = np.asarray(poses, dtype=float)[ok]
+    geometry = robot.cable_geometry(np.asarray(poses, dtype=float)[ok])
     T = T[ok]
-    straight, _ = robot.inverse_kinematics(p)
-    rel = robot.anchors[None, :, :] - p[:, None, :]  # platform -> drawing point, (N, m, 3)
+    rel = geometry.vectors  # platform -> drawing point, (N, m, 3)
     x = np.hypot(rel[..., 0], rel[..., 1])
     z = rel[..., 2]
     w = robot.cable.weight_per_length(robot.g)
     res = solve_length(x, z, np.maximum(T, 0.0), w, EA=robot.cable.EA, end="B")
     L = np.asarray(res.L0, dtype=float)
-    sag_mm = 1e3 * (L - straight)
+    sag_mm = 1e3 * (L - geometry.lengths)
     e_h = rel[..., :2] / np.maximum(x, 1e-300)[..., None]
     force = np.concatenate([np.asarray(res.H)[..., None] * e_h,
                             np.asarray(res.V_A)[..., None]], axis=-1).sum(axis=1)

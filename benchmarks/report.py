@@ -24,11 +24,20 @@ import pandas as pd
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
-from benchmarks import harness, metrics
+from benchmarks import metrics
+from benchmarks.plan import ALL_SETTINGS
+from benchmarks.runner import (
+    JUMP_FRACTION,
+    MAX_CHUNKS,
+    MIN_CHUNK,
+    REFERENCE_BACKENDS,
+    TIME_LIMIT,
+)
 from benchmarks.scenarios import PROBLEMS, RATE_FRACTION, SCENARIOS, SMOOTHING
+from benchmarks.store import RESULTS_DIR, ResultsStore
 
 REPORT_FILE = "README.md"
-BASE_SETTING = harness.ALL_SETTINGS[0].label
+BASE_SETTING = ALL_SETTINGS[0].label
 LIBRARIES = ("numpy", "scipy", "pandas", "cvxpy", "qpsolvers", "clarabel", "daqp", "highspy",
              "osqp", "piqp", "proxsuite", "quadprog", "scs", "matplotlib", "tension-opt")
 _SHORT_STATUS = {"unsupported": "unsup.", "not_installed": "n/i", "not_available": "n/a",
@@ -139,7 +148,7 @@ def backend_summary(frame: pd.DataFrame) -> pd.DataFrame:
 
 def _pick_trace_backend(rows: pd.DataFrame) -> pd.DataFrame:
     """One ok row per problem, preferring the reference backends."""
-    rank = {b: i for i, b in enumerate((*harness.REFERENCE_BACKENDS, "qpsolvers:clarabel"))}
+    rank = {b: i for i, b in enumerate((*REFERENCE_BACKENDS, "qpsolvers:clarabel"))}
     ok = rows[(rows["status"] == "ok") & (rows["setting"] == BASE_SETTING)].copy()
     ok["_rank"] = ok["backend"].map(lambda b: rank.get(b, len(rank)))
     ok = ok.sort_values(["_rank", "success_rate"], ascending=[True, False])
@@ -331,10 +340,10 @@ def plot_smoothness(frame: pd.DataFrame, path: Path | None = None) -> Figure | N
 # ------------------------------------------------------------------- report
 def _settings_lines() -> list[str]:
     return [
-        f"- Cell time limit: {harness.TIME_LIMIT:g} s by default (checked between chunks and "
+        f"- Cell time limit: {TIME_LIMIT:g} s by default (checked between chunks and "
         "passed to the solver as `time_limit`).",
-        f"- Time per pose: each cell solves its poses in at most {harness.MAX_CHUNKS} chunks "
-        f"of at least {harness.MIN_CHUNK} poses (one chunk for shorter scenarios); "
+        f"- Time per pose: each cell solves its poses in at most {MAX_CHUNKS} chunks "
+        f"of at least {MIN_CHUNK} poses (one chunk for shorter scenarios); "
         "a chunk's setup + solve time (as the library reports it) divided by its number of "
         "poses is one sample; median and 95th percentile over the chunks. Sequential problems "
         "are solved pose by pose inside a chunk; joint smoothing is one chunk (one sample).",
@@ -343,9 +352,9 @@ def _settings_lines() -> list[str]:
         "median time per pose over the cells a backend can express (errors and time-outs "
         "count as the slowest time), relative to the best.",
         "- Objective gap: largest `|f - f_ref| / max(|f_ref|, 1)` over the poses, against "
-        f"{' or '.join(harness.REFERENCE_BACKENDS)} (high accuracy), whichever applies first.",
+        f"{' or '.join(REFERENCE_BACKENDS)} (high accuracy), whichever applies first.",
         f"- Smoothing weight {SMOOTHING:g} (1/N); rate limit {RATE_FRACTION:g} m g per step; "
-        f"jumps: steps where some tension changes by more than {harness.JUMP_FRACTION:g} m g.",
+        f"jumps: steps where some tension changes by more than {JUMP_FRACTION:g} m g.",
         "- Centred problem on the study's robot (no upper bound): t_max = 4 m g.",
         "- Sag (study's convention): inextensible catenary per cable with the distributed "
         "tension imposed at the drawing point; `thesis residual` is the force imbalance of "
@@ -440,7 +449,7 @@ def _scenario_section(rows: pd.DataFrame, scenario: str, figures: dict[str, str]
     return lines
 
 
-def write_report(directory: str | os.PathLike[str] = harness.RESULTS_DIR) -> Path:
+def write_report(directory: str | os.PathLike[str] = RESULTS_DIR) -> Path:
     """Write ``README.md`` and the PNG plots from the stored results in ``directory``.
 
     Returns
@@ -448,7 +457,7 @@ def write_report(directory: str | os.PathLike[str] = harness.RESULTS_DIR) -> Pat
     Path
         The report file.
     """
-    store = harness.ResultsStore(directory)
+    store = ResultsStore(directory)
     frame = store.load()
     traces = store.load_traces()
     out = Path(directory)

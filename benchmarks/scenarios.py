@@ -7,8 +7,9 @@ centred problem needs finite bounds, which the study's robot does not have) and 
 over poses by :func:`tension_opt.distribute` or, for joint smoothing,
 ``tension_opt.trajectory.smooth_jointly``.
 
-Random sets are seeded and filtered to the wrench-feasible poses with the exact
-``closed_form`` backend, so every scenario is the same on every machine.
+Random sets are seeded draws of :func:`tension_opt.sampling.random_feasible_poses`
+(kept where the exact ``closed_form`` backend finds feasible tensions), so every
+scenario is the same on every machine.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from numpy.typing import NDArray
 import tension_opt
 from tension_opt import CableRobot, TensionProblem, TensionSolution, presets
 from tension_opt.backends import Backend
+from tension_opt.sampling import feasible_mask, random_feasible_poses
 
 _SNAPSHOT_FILE = Path(__file__).resolve().parents[1] / "tests" / "data" / "thesis_snapshots.json"
 # The study's Table 4 poses (m); used when the data file is not beside the package.
@@ -130,39 +132,25 @@ def pick_and_place(step: float = 0.5, z_low: float = 1.0, z_high: float = 2.0,
     return np.concatenate([at_a, line, at_b])
 
 
-def feasible_random_poses(robot: CableRobot, sampler: Callable[[np.random.Generator, int], NDArray],
-                          count: int, seed: int) -> NDArray:
-    """``count`` random wrench-feasible poses, shape (count, n).
+#: The study's pond (80.9 m along x, 50 m along y) at heights 0..5 m: corners (m).
+POND_LOW = (-40.45, -25.0, 0.0)
+POND_HIGH = (40.45, 25.0, 5.0)
+#: Around CoGiRo's home (0, 0, 2 m): +-4 m x, +-3 m y, z in [1, 3] m, rotations up to
+#: 0.2 rad: corners (m, rad).
+COGIRO_LOW = (-4.0, -3.0, 1.0, -0.2, -0.2, -0.2)
+COGIRO_HIGH = (4.0, 3.0, 3.0, 0.2, 0.2, 0.2)
 
-    Poses are drawn in batches by ``sampler(rng, k)`` and kept where the exact
-    ``closed_form`` minimum-sum problem is optimal (tensions within the robot's bounds).
+
+def random_poses(low: tuple[float, ...], high: tuple[float, ...], count: int,
+                 seed: int) -> Callable[[CableRobot], NDArray]:
+    """Pose maker of a random scenario: ``count`` wrench-feasible poses in a box.
+
+    The poses are :func:`tension_opt.sampling.random_feasible_poses` of the robot
+    (exact ``closed_form`` check, rounds of ``2 * count`` draws), shape (count, n).
     """
-    rng = np.random.default_rng(seed)
-    kept: list[NDArray] = []
-    total = 0
-    for _ in range(100):
-        batch = sampler(rng, 2 * count)
-        ok = tension_opt.distribute(robot, batch, "min_sum", backend="closed_form").success
-        kept.append(batch[ok])
-        total += int(ok.sum())
-        if total >= count:
-            break
-    poses = np.concatenate(kept)
-    if len(poses) < count:
-        raise RuntimeError(f"found only {len(poses)} feasible poses of {count}")
-    return poses[:count]
-
-
-def _pond_sampler(rng: np.random.Generator, k: int) -> NDArray:
-    # The study's pond: 80.9 m along x, 50 m along y; heights 0..5 m.
-    return np.column_stack([rng.uniform(-40.45, 40.45, k), rng.uniform(-25.0, 25.0, k),
-                            rng.uniform(0.0, 5.0, k)])
-
-
-def _cogiro_sampler(rng: np.random.Generator, k: int) -> NDArray:
-    # Around home (0, 0, 2 m): +-4 m x, +-3 m y, z in [1, 3] m, rotations up to 0.2 rad.
-    return np.column_stack([rng.uniform(-4.0, 4.0, k), rng.uniform(-3.0, 3.0, k),
-                            rng.uniform(1.0, 3.0, k), rng.uniform(-0.2, 0.2, (k, 3))])
+    def poses(robot: CableRobot) -> NDArray:
+        return random_feasible_poses(robot, count, seed=seed, low=low, high=high)
+    return poses
 
 
 def long_pond_path(robot: CableRobot, count: int = 10_000) -> NDArray:
@@ -185,11 +173,11 @@ def cogiro_path(robot: CableRobot, count: int = 60) -> NDArray:
                             0.1 * np.sin(t), 0.1 * np.cos(t), 0.2 * np.sin(t)])
 
 
-def _feasible_only(make: Callable[[CableRobot], NDArray]) -> Callable[[CableRobot], NDArray]:
+def feasible_only(make: Callable[[CableRobot], NDArray]) -> Callable[[CableRobot], NDArray]:
+    """Pose maker that keeps the wrench-feasible poses of ``make`` (exact closed form)."""
     def poses(robot: CableRobot) -> NDArray:
         p = make(robot)
-        ok = tension_opt.distribute(robot, p, "min_sum", backend="closed_form").success
-        return p[ok]
+        return p[feasible_mask(robot, p)]
     return poses
 
 
@@ -206,14 +194,14 @@ SCENARIOS: dict[str, Scenario] = {
                  "100 random wrench-feasible poses in the pond, z in [0, 5] m (seed 1; about "
                  "a fifth of the pond is not wrench-feasible with t_min = m g)",
                  presets.algae_harvester,
-                 lambda r: feasible_random_poses(r, _pond_sampler, 100, seed=1), sag=True),
+                 random_poses(POND_LOW, POND_HIGH, 100, seed=1), sag=True),
         Scenario("cogiro_trajectory",
                  "CoGiRo (8 cables, 6 DOF): 60-pose loop around home with small rotations",
-                 presets.cogiro, _feasible_only(cogiro_path), trajectory=True),
+                 presets.cogiro, feasible_only(cogiro_path), trajectory=True),
         Scenario("cogiro_random",
                  "CoGiRo: 100 random wrench-feasible poses around home, rotations <= 0.2 rad "
                  "(seed 2)",
-                 presets.cogiro, lambda r: feasible_random_poses(r, _cogiro_sampler, 100, seed=2)),
+                 presets.cogiro, random_poses(COGIRO_LOW, COGIRO_HIGH, 100, seed=2)),
         Scenario("thesis_long",
                  "throughput: 10^4-pose Lissajous path over the pond (about 2 cm steps)",
                  presets.algae_harvester, long_pond_path, trajectory=True, sag=True, large=True),

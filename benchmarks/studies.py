@@ -22,11 +22,14 @@ Dask cluster); the table is the same whichever runs it. A pose that is infeasibl
 whose catenary fails stays in the table with its status and NaN numbers; a sweep never
 stops at one bad point.
 
-Command line::
+Command line (:mod:`benchmarks.cli`)::
 
-    python -m benchmarks.studies diameter --executor processes:2 --out diameter.csv
-    python -m benchmarks.studies material --materials steel polyethylene kevlar
-    python -m benchmarks.studies mass --values 100 200 300 --pose 0 0 0 --pose 8 -5 2
+    python -m benchmarks study diameter --executor processes:2 --out diameter.csv
+    python -m benchmarks study material --materials steel polyethylene kevlar
+    python -m benchmarks study mass --values 100 200 300 --pose 0 0 0 --pose 8 -5 2
+
+The study's parameters and the robots of the sweep points are in
+:mod:`benchmarks.study_points`.
 
 Units are SI throughout (m, kg, N, Pa); lengths and differences in the table are in
 metres, relative errors in percent.
@@ -34,12 +37,9 @@ metres, relative errors in percent.
 
 from __future__ import annotations
 
-import argparse
-import math
 import sys
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Literal, cast
 
 import numpy as np
@@ -47,7 +47,21 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 import catenary
-from catenary.materials import CableMaterial, get_material, material_names
+from benchmarks.study_points import (
+    NOMINAL_ASPECT_RATIO,
+    NOMINAL_POND_AREA,
+    ROBOT_OVERRIDES,
+    STUDY_PARAMETERS,
+    StudyParameter,
+    SweepPoint,
+    cable_density,
+    canonical_parameter,
+    check_material_use,
+    check_overrides,
+    study_robot,
+    sweep_points,
+)
+from catenary.materials import CableMaterial
 from tension_opt import CableRobot, distribute, presets
 from tension_opt.errors import InvalidInputError
 from tension_opt.executors import Executor, chunk_slices, run_chunks
@@ -61,37 +75,11 @@ __all__ = [
     "ROBOT_OVERRIDES",
     "STUDY_PARAMETERS",
     "StudyParameter",
-    "main",
     "material_study",
     "study_robot",
     "summarize",
     "sweep",
 ]
-
-ROBOT_OVERRIDES: tuple[str, ...] = (
-    "pond_length",
-    "pond_width",
-    "tower_height",
-    "offset_x",
-    "offset_y",
-    "mass",
-    "cable_diameter",
-    "cable_density",
-    "t_min",
-    "t_max",
-    "g",
-    "EA",
-)
-"""Keyword overrides of :func:`tension_opt.presets.algae_harvester` (SI units)."""
-
-NOMINAL_POND_LENGTH = 80.9
-"""Pond extent along x of the reference robot (m)."""
-NOMINAL_POND_WIDTH = 50.0
-"""Pond extent along y of the reference robot (m)."""
-NOMINAL_POND_AREA = NOMINAL_POND_LENGTH * NOMINAL_POND_WIDTH
-"""Pond area of the reference robot, 4045 m^2."""
-NOMINAL_ASPECT_RATIO = NOMINAL_POND_LENGTH / NOMINAL_POND_WIDTH
-"""Pond aspect ratio PL/PW of the reference robot, 1.618."""
 
 DEFAULT_POSES: tuple[tuple[float, float, float], ...] = ((0.0, 0.0, 0.0), (8.0, -5.0, 2.0))
 """Poses of the study's sweeps (m): the nominal pose and an arbitrary one."""
@@ -100,68 +88,6 @@ SagModel = Literal["thesis", "coupled"]
 
 MODELS: tuple[SagModel, ...] = ("thesis", "coupled")
 """Sag models of :func:`catenary.inverse_kinematics` a sweep can evaluate."""
-
-
-@dataclass(frozen=True)
-class StudyParameter:
-    """A robot parameter that :func:`sweep` knows by name.
-
-    Attributes
-    ----------
-    name : str
-        Name given to :func:`sweep` and written in the ``parameter`` column.
-    description : str
-        What the parameter is, and what stays fixed while it moves.
-    unit : str
-        SI unit of the values ("" for materials and ratios).
-    defaults : tuple
-        Values swept when none are given (the study's ranges).
-    override : str or None
-        The :func:`~tension_opt.presets.algae_harvester` keyword the value sets, or None
-        for derived parameters (pond area, aspect ratio, material).
-    """
-
-    name: str
-    description: str
-    unit: str
-    defaults: tuple[Any, ...]
-    override: str | None = None
-
-
-def _grid(start: float, stop: float, step: float, digits: int = 6) -> tuple[float, ...]:
-    count = round((stop - start) / step) + 1
-    return tuple(round(start + k * step, digits) for k in range(count))
-
-
-_AREA_FACTORS = (0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0)
-_ASPECT_RATIOS = (0.25, 0.5, 0.75, 1.0, 1.5, round(NOMINAL_ASPECT_RATIO, 3), 2.0, 3.0, 4.0)
-
-STUDY_PARAMETERS: dict[str, StudyParameter] = {
-    p.name: p
-    for p in (
-        StudyParameter("diameter", "cable diameter", "m", _grid(0.010, 0.030, 0.002),
-                       "cable_diameter"),
-        StudyParameter("density", "cable material density (full nominal section)", "kg/m^3",
-                       _grid(1000.0, 10000.0, 1000.0), "cable_density"),
-        StudyParameter("mass", "end-effector mass; t_min = m g follows it unless t_min is "
-                       "given", "kg", _grid(100.0, 400.0, 25.0), "mass"),
-        StudyParameter("pond_area", "pond area PL*PW at a fixed aspect ratio PL/PW (80.9/50 "
-                       "unless pond_length/pond_width are given)", "m^2",
-                       tuple(round(f * NOMINAL_POND_AREA, 3) for f in _AREA_FACTORS)),
-        StudyParameter("aspect_ratio", "pond aspect ratio PL/PW at a fixed area (80.9*50 m^2 "
-                       "unless pond_length/pond_width are given)", "", _ASPECT_RATIOS),
-        StudyParameter("material", "cable material of the catalogue catenary.MATERIALS "
-                       "(density; EA too with elastic=True)", "", tuple(material_names())),
-    )
-}
-"""The study's sweeps by name, with their default values.
-
-Any other keyword of :data:`ROBOT_OVERRIDES` can be swept too (``sweep("tower_height",
-[5, 7.6, 10])``); it has no default values. ``"cable_diameter"`` and ``"cable_density"``
-are the same as ``"diameter"`` and ``"density"``.
-"""
-
-_ALIASES = {"cable_diameter": "diameter", "cable_density": "density"}
 
 COLUMNS: dict[str, str] = {
     "parameter": "name of the swept parameter",
@@ -205,194 +131,15 @@ COLUMNS: dict[str, str] = {
 """Columns of the tables of :func:`sweep`, ``<model>`` being "thesis" or "coupled"."""
 
 
-# ----------------------------------------------------------------------------
-# sweep points
-
-
-@dataclass(frozen=True)
-class _Point:
-    """One sweep point: the preset overrides that make its robot."""
-
-    index: int
-    parameter: str
-    value: Any
-    overrides: dict[str, Any]
-    material: str  # catalogue name, "" when none
-    breaking_load: float
-    pond: tuple[float, float]
-
-
 @dataclass(frozen=True)
 class _Chunk:
     """Work sent to an executor: consecutive sweep points and what to compute."""
 
-    points: tuple[_Point, ...]
+    points: tuple[SweepPoint, ...]
     poses: NDArray[np.float64]
     models: tuple[SagModel, ...]
     objective: str
     backend: str
-
-
-def _canonical(parameter: str) -> str:
-    if not isinstance(parameter, str):
-        raise InvalidInputError(f"parameter must be a name; got {parameter!r}")
-    name = _ALIASES.get(parameter, parameter)
-    if name not in STUDY_PARAMETERS and name not in ROBOT_OVERRIDES:
-        known = sorted(set(STUDY_PARAMETERS) | set(ROBOT_OVERRIDES) - set(_ALIASES))
-        raise InvalidInputError(f"unknown study parameter {parameter!r}; known: {known}")
-    return name
-
-
-def _check_overrides(overrides: dict[str, Any]) -> None:
-    unknown = sorted(set(overrides) - set(ROBOT_OVERRIDES))
-    if unknown:
-        raise InvalidInputError(
-            f"unknown robot override(s) {unknown}; allowed: {list(ROBOT_OVERRIDES)}"
-        )
-
-
-def _as_number(parameter: str, value: Any) -> float:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise InvalidInputError(f"{parameter} values must be numbers; got {value!r}") from None
-    if not math.isfinite(number) and not (parameter == "t_max" and number == math.inf):
-        raise InvalidInputError(f"{parameter} values must be finite; got {value!r}")
-    return number
-
-
-def _point_overrides(
-    parameter: str,
-    value: Any,
-    overrides: dict[str, Any],
-    material: str | CableMaterial | None,
-    elastic: bool,
-) -> tuple[dict[str, Any], Any, CableMaterial | None, tuple[float, float]]:
-    """Preset overrides of one sweep point, the value as stored, the material and pond."""
-    point = dict(overrides)
-    pond_length = float(overrides.get("pond_length", NOMINAL_POND_LENGTH))
-    pond_width = float(overrides.get("pond_width", NOMINAL_POND_WIDTH))
-    mat: CableMaterial | None = None
-    if parameter == "material":
-        mat = get_material(value)
-        stored: Any = value if isinstance(value, str) else mat.name
-    else:
-        stored = _as_number(parameter, value)
-        if material is not None:
-            mat = get_material(material)
-    if parameter in ("pond_area", "aspect_ratio"):
-        if stored <= 0:
-            raise InvalidInputError(f"{parameter} must be > 0; got {value!r}")
-        if parameter == "pond_area":
-            area, ratio = stored, pond_length / pond_width
-        else:
-            area, ratio = pond_length * pond_width, stored
-        pond_length, pond_width = math.sqrt(area * ratio), math.sqrt(area / ratio)
-        point["pond_length"], point["pond_width"] = pond_length, pond_width
-    elif parameter != "material":
-        key = STUDY_PARAMETERS[parameter].override if parameter in STUDY_PARAMETERS else parameter
-        assert key is not None
-        point[key] = stored
-        if key == "pond_length":
-            pond_length = stored
-        elif key == "pond_width":
-            pond_width = stored
-    if mat is not None:
-        point["cable_density"] = mat.density
-    if elastic:
-        assert mat is not None
-        cable = presets.algae_harvester(**point).cable
-        assert cable is not None
-        point["EA"] = float(mat.rope_modulus * math.pi / 4.0 * cable.diameter**2)
-    return point, stored, mat, (pond_length, pond_width)
-
-
-def _points(
-    parameter: str,
-    values: Iterable[Any],
-    overrides: dict[str, Any],
-    material: str | CableMaterial | None,
-    elastic: bool,
-) -> list[_Point]:
-    """Validated sweep points; every robot is built once here so bad input raises now."""
-    points = []
-    for index, value in enumerate(values):
-        point, stored, mat, pond = _point_overrides(parameter, value, overrides, material,
-                                                    elastic)
-        try:
-            robot = presets.algae_harvester(**point)
-        except InvalidInputError as exc:
-            raise InvalidInputError(f"{parameter}={value!r}: {exc}") from None
-        assert robot.cable is not None
-        load = float(mat.breaking_load(robot.cable.diameter)) if mat is not None else math.nan
-        points.append(_Point(index, parameter, stored, point, mat.name if mat else "", load,
-                             pond))
-    if not points:
-        raise InvalidInputError(f"no values to sweep for {parameter!r}")
-    return points
-
-
-def study_robot(
-    parameter: str,
-    value: Any,
-    *,
-    material: str | CableMaterial | None = None,
-    elastic: bool = False,
-    **robot_overrides: Any,
-) -> CableRobot:
-    """The reference robot at one sweep point, as :func:`sweep` builds it.
-
-    Parameters
-    ----------
-    parameter : str
-        A name of :data:`STUDY_PARAMETERS` or of :data:`ROBOT_OVERRIDES`.
-    value : float or str
-        The parameter's value (SI units; a material name for ``"material"``).
-    material, elastic, **robot_overrides
-        As in :func:`sweep`.
-
-    Returns
-    -------
-    CableRobot
-
-    Examples
-    --------
-    A pond of twice the area at the same aspect ratio:
-
-    >>> r = study_robot("pond_area", 2 * NOMINAL_POND_AREA)
-    >>> length, width = 2 * (r.anchors[:, :2].max(axis=0) - 6.1)
-    >>> print(f"{length * width / NOMINAL_POND_AREA:.6f} {length / width:.4f}")
-    2.000000 1.6180
-    """
-    name = _canonical(parameter)
-    _check_overrides(robot_overrides)
-    _check_material_use(name, robot_overrides, material, elastic)
-    point = _points(name, [value], robot_overrides, material, elastic)[0]
-    return presets.algae_harvester(**point.overrides)
-
-
-def _check_material_use(
-    parameter: str,
-    overrides: dict[str, Any],
-    material: str | CableMaterial | None,
-    elastic: bool,
-) -> None:
-    has_material = material is not None or parameter == "material"
-    if material is not None and parameter == "material":
-        raise InvalidInputError("a material sweep takes its materials as values; drop material=")
-    if has_material and ("cable_density" in overrides or parameter == "density"):
-        raise InvalidInputError(
-            "the material sets the cable density: drop cable_density or the material"
-        )
-    if elastic and not has_material:
-        raise InvalidInputError(
-            "elastic=True takes EA from a catalogue material: give material=... (or EA=...)"
-        )
-    if elastic and ("EA" in overrides or parameter == "EA"):
-        raise InvalidInputError("elastic=True sets EA from the material: drop EA or elastic")
-    name = STUDY_PARAMETERS[parameter].override if parameter in STUDY_PARAMETERS else parameter
-    if name is not None and name in overrides:
-        raise InvalidInputError(f"{name} is swept; do not also pass it as an override")
 
 
 # ----------------------------------------------------------------------------
@@ -412,17 +159,29 @@ def _error_text(exc: Exception) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
-def _density(point: _Point, robot: CableRobot) -> float:
-    """Cable density (kg/m^3): as given, else from the linear mass of the robot's cable."""
-    if "cable_density" in point.overrides:
-        return float(point.overrides["cable_density"])
-    assert robot.cable is not None
-    density = robot.cable.linear_mass / (math.pi / 4.0 * robot.cable.diameter**2)
-    return float(f"{density:.12g}")  # 7860.0, not 7860.000000000001
+class _Columns:
+    """Columns of one sweep point's rows: one row per (pose, cable), N poses, m cables."""
+
+    def __init__(self, N: int, m: int) -> None:
+        self.N, self.m, self.rows = N, m, N * m
+        self.cols: dict[str, Any] = {}
+        self.notes: list[str] = []
+
+    def cable(self, a: ArrayLike) -> NDArray[np.float64]:
+        """Per-cable values (N, m) as a column."""
+        return np.asarray(a, dtype=np.float64).reshape(self.rows)
+
+    def pose(self, a: ArrayLike) -> NDArray[Any]:
+        """Per-pose values (N,) repeated over the cables."""
+        return np.repeat(np.asarray(a), self.m)
+
+    def full(self, value: Any, dtype: Any = None) -> NDArray[Any]:
+        """One value on every row."""
+        return np.full(self.rows, value, dtype=dtype)
 
 
 def _point_frame(
-    point: _Point,
+    point: SweepPoint,
     poses: NDArray[np.float64],
     models: tuple[SagModel, ...],
     objective: str,
@@ -430,91 +189,98 @@ def _point_frame(
 ) -> pd.DataFrame:
     """Rows of one sweep point: all poses solved at once, one row per (pose, cable)."""
     robot = presets.algae_harvester(**point.overrides)
+    out = _Columns(poses.shape[0], robot.m)
+    _describe(out, point, robot, poses)
+    _straight(out, robot, poses, backend)
+    lengths = {model: _sagging(out, robot, poses, model, objective, backend)
+               for model in models}
+    if "thesis" in lengths and "coupled" in lengths:
+        out.cols["L_difference"] = lengths["coupled"] - lengths["thesis"]
+    out.cols["note"] = out.full("; ".join(out.notes), dtype=object)
+    return pd.DataFrame(out.cols)
+
+
+def _describe(out: _Columns, point: SweepPoint, robot: CableRobot,
+              poses: NDArray[np.float64]) -> None:
+    """The point's parameter, the poses, the cable and the robot's data."""
     assert robot.cable is not None
-    N, m = poses.shape[0], robot.m
-    rows = N * m
-    notes: list[str] = []
+    value_type = object if isinstance(point.value, str) else np.float64
+    out.cols.update({
+        "parameter": out.full(point.parameter, dtype=object),
+        "value": out.full(point.value, dtype=value_type),
+        "point": out.full(point.index, dtype=np.int64),
+        "pose": out.pose(np.arange(out.N, dtype=np.int64)),
+        "x": out.pose(poses[:, 0]),
+        "y": out.pose(poses[:, 1]),
+        "z": out.pose(poses[:, 2]),
+        "cable": np.tile(np.arange(out.m, dtype=np.int64), out.N),
+        "material": out.full(point.material, dtype=object),
+        "diameter": out.full(robot.cable.diameter),
+        "density": out.full(cable_density(point, robot)),
+        "w": out.full(robot.cable.weight_per_length(robot.g)),
+        "EA": out.full(float(robot.cable.EA)),
+        "breaking_load": out.full(point.breaking_load),
+        "mass": out.full(float(robot.mass)),
+        "t_min": np.tile(np.asarray(robot.t_min, dtype=np.float64), out.N),
+        "pond_length": out.full(point.pond[0]),
+        "pond_width": out.full(point.pond[1]),
+    })
 
-    def cable(a: ArrayLike) -> NDArray[np.float64]:
-        return np.asarray(a, dtype=np.float64).reshape(rows)
 
-    def pose(a: ArrayLike) -> NDArray[Any]:
-        return np.repeat(np.asarray(a), m)
-
-    nan = np.full((N, m), np.nan)
-    cols: dict[str, Any] = {
-        "parameter": np.full(rows, point.parameter, dtype=object),
-        "value": np.full(rows, point.value, dtype=object if isinstance(point.value, str)
-                         else np.float64),
-        "point": np.full(rows, point.index, dtype=np.int64),
-        "pose": pose(np.arange(N, dtype=np.int64)),
-        "x": pose(poses[:, 0]),
-        "y": pose(poses[:, 1]),
-        "z": pose(poses[:, 2]),
-        "cable": np.tile(np.arange(m, dtype=np.int64), N),
-        "material": np.full(rows, point.material, dtype=object),
-        "diameter": np.full(rows, robot.cable.diameter),
-        "density": np.full(rows, _density(point, robot)),
-        "w": np.full(rows, robot.cable.weight_per_length(robot.g)),
-        "EA": np.full(rows, float(robot.cable.EA)),
-        "breaking_load": np.full(rows, point.breaking_load),
-        "mass": np.full(rows, float(robot.mass)),
-        "t_min": np.tile(np.asarray(robot.t_min, dtype=np.float64), N),
-        "pond_length": np.full(rows, point.pond[0]),
-        "pond_width": np.full(rows, point.pond[1]),
-    }
-
+def _straight(out: _Columns, robot: CableRobot, poses: NDArray[np.float64],
+              backend: str) -> None:
+    """Straight lengths, and the LP and pseudo-inverse tensions of straight statics."""
+    nan = np.full((out.N, out.m), np.nan)
     try:
         Le, _ = robot.inverse_kinematics(poses)
     except Exception as exc:  # a sweep never stops at one point
         Le = nan
-        notes.append(f"straight lengths: {_error_text(exc)}")
-    cols["Le"] = cable(Le)
-
+        out.notes.append(f"straight lengths: {_error_text(exc)}")
+    out.cols["Le"] = out.cable(Le)
     for key, obj, back in (("lp", "min_sum", backend), ("pinv", "pinv", "auto")):
         try:
             sol = distribute(robot, poses, obj, back)
             T, status = sol.tensions, np.array([str(s) for s in sol.status], dtype=object)
         except Exception as exc:
-            T, status = nan, np.full(N, "error", dtype=object)
-            notes.append(f"{key}: {_error_text(exc)}")
-        cols[f"T_{key}"] = cable(T)
-        cols[f"status_{key}"] = pose(status)
+            T, status = nan, np.full(out.N, "error", dtype=object)
+            out.notes.append(f"{key}: {_error_text(exc)}")
+        out.cols[f"T_{key}"] = out.cable(T)
+        out.cols[f"status_{key}"] = out.pose(status)
 
-    lengths: dict[str, NDArray[np.float64]] = {}
-    for model in models:
-        try:
-            ik = catenary.inverse_kinematics(robot, poses, model=model, objective=objective,
-                                             backend=backend)
-            L, T, T_A = ik.lengths, ik.tensions, ik.tensions_platform
-            residual, its, cat_its = ik.equilibrium_residual, ik.iterations, \
-                ik.catenary_iterations
-            status = np.asarray(ik.status, dtype=object)
-            # Failed poses carry NaN lengths already; keep their residual NaN too.
-            residual = np.where(np.isnan(L).any(axis=1), np.nan, residual)
-        except Exception as exc:
-            L, T, T_A = nan, nan, nan
-            residual = np.full(N, np.nan)
-            its, cat_its = np.full(N, -1), np.full((N, m), -1)
-            status = np.full(N, "error", dtype=object)
-            notes.append(f"{model}: {_error_text(exc)}")
-        L = cable(L)
-        D = L - cols["Le"]
-        lengths[model] = L
-        cols[f"L_{model}"] = L
-        cols[f"D_{model}"] = D
-        with np.errstate(invalid="ignore", divide="ignore"):
-            cols[f"rel_error_{model}"] = 100.0 * D / L
-        cols[f"T_{model}"] = cable(T)
-        cols[f"T_platform_{model}"] = cable(T_A)
-        cols[f"residual_{model}"] = pose(np.asarray(residual, dtype=np.float64))
-        cols[f"iterations_{model}"] = pose(np.asarray(its, dtype=np.int64))
-        cols[f"catenary_iterations_{model}"] = np.asarray(cat_its, dtype=np.int64).reshape(rows)
-        cols[f"status_{model}"] = pose(status)
-    if "thesis" in lengths and "coupled" in lengths:
-        cols["L_difference"] = lengths["coupled"] - lengths["thesis"]
-    cols["note"] = np.full(rows, "; ".join(notes), dtype=object)
-    return pd.DataFrame(cols)
+
+def _sagging(out: _Columns, robot: CableRobot, poses: NDArray[np.float64], model: SagModel,
+             objective: str, backend: str) -> NDArray[np.float64]:
+    """Columns of one sag model; returns its lengths (N * m,) (m)."""
+    N, m = out.N, out.m
+    try:
+        ik = catenary.inverse_kinematics(robot, poses, model=model, objective=objective,
+                                         backend=backend)
+        L, T, T_A = ik.lengths, ik.tensions, ik.tensions_platform
+        residual, its, cat_its = ik.equilibrium_residual, ik.iterations, \
+            ik.catenary_iterations
+        status = np.asarray(ik.status, dtype=object)
+        # Failed poses carry NaN lengths already; keep their residual NaN too.
+        residual = np.where(np.isnan(L).any(axis=1), np.nan, residual)
+    except Exception as exc:
+        L = T = T_A = np.full((N, m), np.nan)
+        residual = np.full(N, np.nan)
+        its, cat_its = np.full(N, -1), np.full((N, m), -1)
+        status = np.full(N, "error", dtype=object)
+        out.notes.append(f"{model}: {_error_text(exc)}")
+    L = out.cable(L)
+    D = L - out.cols["Le"]
+    out.cols[f"L_{model}"] = L
+    out.cols[f"D_{model}"] = D
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out.cols[f"rel_error_{model}"] = 100.0 * D / L
+    out.cols[f"T_{model}"] = out.cable(T)
+    out.cols[f"T_platform_{model}"] = out.cable(T_A)
+    out.cols[f"residual_{model}"] = out.pose(np.asarray(residual, dtype=np.float64))
+    out.cols[f"iterations_{model}"] = out.pose(np.asarray(its, dtype=np.int64))
+    out.cols[f"catenary_iterations_{model}"] = np.asarray(cat_its, dtype=np.int64).reshape(
+        out.rows)
+    out.cols[f"status_{model}"] = out.pose(status)
+    return L
 
 
 # ----------------------------------------------------------------------------
@@ -533,6 +299,38 @@ def _as_poses(poses: ArrayLike | None) -> NDArray[np.float64]:
     if not np.isfinite(arr).all():
         raise InvalidInputError("poses must be finite")
     return arr
+
+
+def _models(models: Sequence[str]) -> tuple[SagModel, ...]:
+    names = tuple(models)
+    if not names or any(mo not in MODELS for mo in names) or len(set(names)) != len(names):
+        raise InvalidInputError(f"models must be distinct names among {MODELS}; got {models!r}")
+    return cast(tuple[SagModel, ...], names)  # checked just above
+
+
+def _values(name: str, parameter: str, values: Iterable[Any] | None) -> list[Any]:
+    """The values of a sweep as a list: the defaults, one value, or any iterable."""
+    if values is None:
+        if name not in STUDY_PARAMETERS:
+            raise InvalidInputError(f"{parameter!r} has no default values: pass values=[...]")
+        return list(STUDY_PARAMETERS[name].defaults)
+    if isinstance(values, str | CableMaterial) or np.isscalar(values):
+        return [values]  # one value
+    if isinstance(values, np.ndarray):
+        return values.ravel().tolist()
+    return list(values)
+
+
+def _checked_points(name: str, parameter: str, values: Iterable[Any] | None,
+                    models: Sequence[str], overrides: dict[str, Any],
+                    material: str | CableMaterial | None,
+                    elastic: bool) -> tuple[list[SweepPoint], tuple[SagModel, ...]]:
+    """The sweep points and sag models of :func:`sweep`, all options checked."""
+    check_overrides(overrides)
+    check_material_use(name, overrides, material, elastic)
+    chosen = _models(models)
+    points = sweep_points(name, _values(name, parameter, values), overrides, material, elastic)
+    return points, chosen
 
 
 def sweep(
@@ -560,18 +358,16 @@ def sweep(
         ``"material"`` (catalogue names), or any other keyword of
         :data:`ROBOT_OVERRIDES` (``"tower_height"``, ``"t_max"``, ...).
     values : iterable, optional
-        Values to sweep, shape (K,); default ``STUDY_PARAMETERS[parameter].defaults``
-        (the study's ranges). Required for parameters without defaults.
+        Values to sweep, shape (K,); default the study's range
+        ``STUDY_PARAMETERS[parameter].defaults`` (required for other parameters).
     poses : array_like, shape (N, 3) or (3,), optional
-        End-effector positions (m); default :data:`DEFAULT_POSES`, (0, 0, 0) and
-        (8, -5, 2).
+        End-effector positions (m); default :data:`DEFAULT_POSES`.
     material : str or CableMaterial, optional
         Cable material for every point (its density replaces ``cable_density``).
         Not with ``parameter="material"``.
     elastic : bool
-        Give the cable the axial stiffness ``EA = E_rope * pi/4 * d^2`` of its catalogue
-        material. Default False: the inextensible cable of the reference study (which
-        used only the density).
+        Give the cable the axial stiffness ``EA = E_rope * pi/4 * d^2`` of its material;
+        default False: the inextensible cable of the reference study.
     models : sequence of {"thesis", "coupled"}
         Sag models to evaluate (:func:`catenary.inverse_kinematics`).
     objective : str
@@ -580,14 +376,10 @@ def sweep(
     backend : str
         Backend of the LP and of the sag models (``"auto"``: the exact closed form).
     executor : str, Executor or dask.distributed.Client, optional
-        Where the chunks of sweep points run: None or ``"inprocess"``,
-        ``"processes[:N]"``, ``"dask:tcp://host:8786"``, an
-        :class:`~tension_opt.executors.Executor`, or a Dask client. The result does not
-        depend on it.
-    chunk_size : int
-        Sweep points per chunk (>= 1).
-    progress : bool
-        Show a progress bar over the chunks.
+        Where the chunks of sweep points run: None or ``"inprocess"``, ``"processes[:N]"``,
+        ``"dask:tcp://host:8786"``, an executor or a Dask client; the result is the same.
+    chunk_size, progress : int, bool
+        Sweep points per chunk (>= 1); show a progress bar over the chunks.
     **robot_overrides
         Fixed overrides of :func:`tension_opt.presets.algae_harvester` (SI units),
         e.g. ``mass=300`` or ``t_max=20000``; not the swept parameter.
@@ -613,31 +405,13 @@ def sweep(
     >>> table.groupby("value")["T_lp"].first().round(1).tolist()
     [3646.3, 5469.4]
     """
-    name = _canonical(parameter)
-    _check_overrides(robot_overrides)
-    _check_material_use(name, robot_overrides, material, elastic)
-    model_names = tuple(models)
-    if not model_names or any(mo not in MODELS for mo in model_names) \
-            or len(set(model_names)) != len(model_names):
-        raise InvalidInputError(f"models must be distinct names among {MODELS}; got {models!r}")
-    chosen = cast(tuple[SagModel, ...], model_names)  # checked just above
-    if values is None:
-        if name not in STUDY_PARAMETERS:
-            raise InvalidInputError(f"{parameter!r} has no default values: pass values=[...]")
-        values = STUDY_PARAMETERS[name].defaults
-    elif isinstance(values, str | CableMaterial) or np.isscalar(values):
-        values = [values]  # one value
-    elif isinstance(values, np.ndarray):
-        values = values.ravel().tolist()
-    points = _points(name, list(values), robot_overrides, material, elastic)
-    p = _as_poses(poses)
-    chunks = [
-        _Chunk(tuple(points[s]), p, chosen, objective, backend)
-        for s in chunk_slices(len(points), chunk_size)
-    ]
-    frames = run_chunks(_run_chunk, chunks, executor=executor, progress=progress,
-                        description=f"{name} sweep")
-    return pd.concat(frames, ignore_index=True)
+    name = canonical_parameter(parameter)
+    points, chosen = _checked_points(name, parameter, values, models, robot_overrides,
+                                     material, elastic)
+    work = (_as_poses(poses), chosen, objective, backend)
+    chunks = [_Chunk(tuple(points[s]), *work) for s in chunk_slices(len(points), chunk_size)]
+    return pd.concat(run_chunks(_run_chunk, chunks, executor=executor, progress=progress,
+                                description=f"{name} sweep"), ignore_index=True)
 
 
 def material_study(
@@ -711,80 +485,8 @@ def summarize(table: pd.DataFrame) -> pd.DataFrame:
     return out.reset_index()
 
 
-# ----------------------------------------------------------------------------
-# command line
+if __name__ == "__main__":  # the old spelling of ``python -m benchmarks study ...``
+    import runpy
 
-
-def _parser() -> argparse.ArgumentParser:
-    names = [*STUDY_PARAMETERS,
-             *(n for n in ROBOT_OVERRIDES if n not in _ALIASES and n not in STUDY_PARAMETERS)]
-    parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.studies",
-        description="Sweep one parameter of the reference algae-harvesting robot and "
-                    "tabulate straight and sagging cable lengths and tensions.")
-    parser.add_argument("parameter", choices=names, metavar="PARAMETER",
-                        help=f"one of {names}")
-    parser.add_argument("--values", nargs="+", metavar="V",
-                        help="values to sweep, SI units (material names for 'material'); "
-                             "default: the study's range")
-    parser.add_argument("--materials", nargs="+", metavar="NAME",
-                        help="same as --values for the material study")
-    parser.add_argument("--pose", nargs=3, type=float, action="append", metavar=("X", "Y", "Z"),
-                        help="a pose in m (repeat for several); default (0,0,0) and (8,-5,2)")
-    parser.add_argument("--material", help="cable material for every point (not with "
-                                           "'material')")
-    parser.add_argument("--elastic", action="store_true",
-                        help="EA from the material's rope modulus (default: inextensible)")
-    parser.add_argument("--models", nargs="+", choices=MODELS, default=list(MODELS))
-    parser.add_argument("--set", nargs="+", default=[], metavar="KEY=VALUE",
-                        help=f"fixed robot overrides among {list(ROBOT_OVERRIDES)}")
-    parser.add_argument("--executor", metavar="SPEC",
-                        help="inprocess (default), processes[:N] or dask[:ADDRESS]")
-    parser.add_argument("--chunk-size", type=int, default=1, help="sweep points per chunk")
-    parser.add_argument("--out", type=Path, help="write the full table as CSV here")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
-    return parser
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Command line: ``python -m benchmarks.studies PARAMETER [options]``.
-
-    Prints a summary per (sweep point, pose) and writes the full table with ``--out``.
-    """
-    parser = _parser()
-    args = parser.parse_args(argv)
-    raw = args.materials if args.materials is not None else args.values
-    if args.materials is not None and args.parameter != "material":
-        parser.error(f"--materials goes with the 'material' sweep, not {args.parameter!r}")
-    values: list[Any] | None
-    try:
-        values = raw if raw is None or args.parameter == "material" else [float(v) for v in raw]
-    except ValueError:
-        parser.error(f"--values takes numbers; got {raw}")
-    overrides: dict[str, Any] = {}
-    for item in args.set:
-        key, sep, text = item.partition("=")
-        try:
-            overrides[key] = float(text)
-        except ValueError:
-            sep = ""
-        if not sep:
-            parser.error(f"--set takes KEY=NUMBER; got {item!r}")
-    try:
-        table = sweep(args.parameter, values, args.pose, material=args.material,
-                      elastic=args.elastic, models=args.models, executor=args.executor,
-                      chunk_size=args.chunk_size, progress=not args.no_progress, **overrides)
-    except ValueError as exc:
-        parser.error(str(exc))
-    if args.out is not None:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        table.to_csv(args.out, index=False)
-        print(f"{len(table)} rows written to {args.out}", file=sys.stderr)
-    with pd.option_context("display.width", 200, "display.max_columns", 30,
-                           "display.float_format", "{:.4g}".format):
-        print(summarize(table).to_string(index=False))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+    sys.argv.insert(1, "study")
+    runpy.run_module("benchmarks", run_name="__main__", alter_sys=True)

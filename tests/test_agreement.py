@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import random_cogiro_poses, random_thesis_poses
 
 import tension_opt as to
+from tension_opt.sampling import random_feasible_poses
 
 N_POSES = 1000
 REL_TOL = 1e-6
@@ -17,16 +17,23 @@ REL_TOL = 1e-6
 KNOWN_FAILURES = {("OSQP", "lp"): 0.01, ("HIGHS", "qp"): 0.002}
 
 
-def _feasible_thesis_poses(N: int) -> np.ndarray:
-    robot = to.presets.algae_harvester()
-    poses = random_thesis_poses(2 * N, seed=11)
-    ok = to.distribute(robot, poses, "min_sum", "closed_form").success
-    return poses[ok][:N]
+# Boxes of the random poses (m, rad): the study's pond at heights 0..5 m, and CoGiRo
+# near home (0, 0, 2 m) with rotations up to 0.1 rad.
+POND = ([-40.45, -25.0, 0.0], [40.45, 25.0, 5.0])
+NEAR_COGIRO_HOME = ([-3.0, -2.0, 0.8, -0.1, -0.1, -0.1], [3.0, 2.0, 3.0, 0.1, 0.1, 0.1])
+
+
+def _feasible(robot: to.CableRobot, box: tuple[list[float], list[float]], seed: int,
+              batch: int) -> np.ndarray:
+    return random_feasible_poses(robot, N_POSES, seed=seed, low=box[0], high=box[1],
+                                 batch=batch)
 
 
 CASES = {
-    "thesis": (to.presets.algae_harvester, lambda: _feasible_thesis_poses(N_POSES)),
-    "cogiro": (to.presets.cogiro, lambda: random_cogiro_poses(N_POSES, seed=5)),
+    "thesis": (to.presets.algae_harvester,
+               lambda: _feasible(to.presets.algae_harvester(), POND, 11, 2 * N_POSES)),
+    "cogiro": (to.presets.cogiro,
+               lambda: _feasible(to.presets.cogiro(), NEAR_COGIRO_HOME, 5, 4 * N_POSES)),
 }
 _POSES: dict[str, np.ndarray] = {}
 _REFERENCES: dict[tuple[str, str], to.TensionSolution] = {}

@@ -13,7 +13,7 @@ import pytest
 
 import tension_opt
 from benchmarks import harness
-from benchmarks.__main__ import _parser, main
+from benchmarks.cli import build_parser, main
 from benchmarks.scenarios import PROBLEMS, SCENARIOS, Scenario, pick_and_place
 from tension_opt import presets
 from tension_opt.executors import DaskExecutor
@@ -194,7 +194,7 @@ def test_dask_cluster_gives_the_same_table_and_resumes(
 
 def test_rows_of_cluster_machines_count_as_done(tmp_path: Path) -> None:
     store = harness.ResultsStore(tmp_path)
-    row = {**harness._base_row(CELLS[0]), "machine": "worker-7 / x86_64 / 64 cores"}
+    row = {**harness.base_row(CELLS[0]), "machine": "worker-7 / x86_64 / 64 cores"}
     store.append(row)
     assert store.done() == set()
     assert store.done({"worker-7 / x86_64 / 64 cores"}) == {CELLS[0].key}
@@ -202,7 +202,7 @@ def test_rows_of_cluster_machines_count_as_done(tmp_path: Path) -> None:
 
 def test_command_line_executor_option(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                       capsys: pytest.CaptureFixture[str]) -> None:
-    parser = _parser()
+    parser = build_parser()
     assert parser.parse_args(["run", "--executor", "processes:2"]).executor == "processes:2"
     assert parser.parse_args(["run"]).executor is None
     args = parser.parse_args(["--executor", "dask:tcp://10.0.0.1:8786", "run"])

@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 
 from benchmarks import harness, report
+from benchmarks import store as store_module
 from benchmarks.__main__ import main
 from benchmarks.scenarios import PROBLEMS, SCENARIOS, Scenario, pick_and_place
 from tension_opt import presets
@@ -157,7 +158,7 @@ def test_rows_measured_on_another_machine_are_run_again(tmp_path: Path,
     store = harness.ResultsStore(tmp_path)
     harness.run(cells, store, progress=False, isolate=False)
     assert store.done() == {c.key for c in cells}
-    monkeypatch.setattr(harness, "machine_label", lambda: "another host / cpu / 2 cores")
+    monkeypatch.setattr(store_module, "machine_label", lambda: "another host / cpu / 2 cores")
     assert store.done() == set()  # a fresh clone's stored rows are not its own
     frame = harness.run(cells, store, progress=False, isolate=False)
     assert (frame["machine"] == "another host / cpu / 2 cores").all()

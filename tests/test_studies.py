@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 import catenary
-from benchmarks import studies
+from benchmarks import cli, studies
 from benchmarks.studies import (
     NOMINAL_ASPECT_RATIO,
     NOMINAL_POND_AREA,
@@ -295,8 +295,8 @@ def test_elastic_material_stretches_the_cable():
 
 def test_summary_and_command_line(tmp_path, capsys):
     out = tmp_path / "mass.csv"
-    code = studies.main(["mass", "--values", "200", "300", "--pose", "0", "0", "0",
-                         "--models", "thesis", "--out", str(out), "--no-progress"])
+    code = cli.main(["study", "mass", "--values", "200", "300", "--pose", "0", "0", "0",
+                     "--models", "thesis", "--out", str(out), "--no-progress"])
     assert code == 0
     table = pd.read_csv(out)
     assert len(table) == 2 * 4 and set(table["value"]) == {200.0, 300.0}
@@ -312,7 +312,7 @@ def test_summary_and_command_line(tmp_path, capsys):
         (["mass", "--materials", "steel"], "--materials goes with the 'material' sweep"),
     ]:
         with pytest.raises(SystemExit) as stop:
-            studies.main([*argv, "--no-progress"])
+            cli.main(["study", *argv, "--no-progress"])
         assert stop.value.code == 2
         assert message in capsys.readouterr().err
 
