@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 import tension_opt as to
-from catenary.kinematics import forward_kinematics, inverse_kinematics
+from catenary import forward_kinematics, inverse_kinematics
 
 
 def _poses(robot: to.CableRobot, N: int, seed: int = 0) -> np.ndarray:

@@ -1,11 +1,23 @@
-"""Elastic catenary of a single cable: span equations and solvers.
+"""Elastic catenary of a single cable, and the sag-aware kinematics of a cable robot.
 
-``catenary.elastic`` holds the pure, vectorised span equations (Irvine's
-elastic catenary) with their analytic flexibility and stiffness;
-``catenary.solve`` the forward (length -> forces) and inverse
-(tension -> length) solvers; ``catenary.materials`` a small cable catalogue.
-These need nothing but numpy and scipy; ``catenary.kinematics`` (sag-aware inverse and
-forward kinematics of a :class:`tension_opt.CableRobot`) builds on ``tension_opt``.
+A single hanging cable (these need nothing but numpy and scipy):
+
+- ``catenary.elastic``: the pure, vectorised span equations (Irvine's elastic
+  catenary) with their analytic flexibility and stiffness;
+- ``catenary.solve``: the forward (length -> forces) and inverse (tension -> length)
+  solvers;
+- ``catenary.materials``: a small cable catalogue.
+
+A :class:`tension_opt.CableRobot` whose cables sag (built on ``tension_opt``):
+
+- ``catenary.geometry``: the cables in their vertical planes, the platform forces and
+  their wrench, the extreme tensions along a cable;
+- ``catenary.inverse``: sag-aware inverse kinematics (:func:`inverse_kinematics`, the
+  thesis convention and the coupled model);
+- ``catenary.coupled``: the coupled model's sequential convex programming;
+- ``catenary.forward``: sag-aware forward kinematics (:func:`forward_kinematics`);
+- ``catenary.margin``: the coupled capacity margin (:func:`coupled_margin`);
+- ``catenary.workspace``: the coupled-sag workspace (:func:`sag_workspace`).
 """
 
 from .elastic import (
@@ -19,12 +31,9 @@ from .elastic import (
     tension,
 )
 from .errors import CatenaryError, InvalidCableError
-from .kinematics import (
-    ForwardKinematicsResult,
-    InverseKinematicsResult,
-    forward_kinematics,
-    inverse_kinematics,
-)
+from .forward import ForwardKinematicsResult, forward_kinematics
+from .inverse import InverseKinematicsResult, inverse_kinematics
+from .margin import coupled_margin
 from .materials import (
     MATERIALS,
     CableMaterial,
@@ -34,7 +43,7 @@ from .materials import (
     material_names,
 )
 from .solve import ForcesResult, LengthResult, solve_forces, solve_length
-from .workspace import SagWorkspaceResult, coupled_margin, sag_workspace
+from .workspace import SagWorkspaceResult, sag_workspace
 
 __all__ = [
     "MATERIALS",

@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.errors import InvalidInputError
 from tension_opt.kinds import MotionPattern, get_kind
-from tension_opt.solution import STATUS_DTYPE, Status
+from tension_opt.status import STATUS_DTYPE, Status
 
 RobotKind = Literal["point3", "planar_point2", "planar3", "spatial6"]
 

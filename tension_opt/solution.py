@@ -1,58 +1,27 @@
-"""Result of a tension distribution: :class:`TensionSolution` and :class:`Status`."""
+"""Result of a tension distribution: :class:`TensionSolution`.
+
+:class:`~tension_opt.status.Status` and :func:`~tension_opt.status.status_array` are
+re-exported here.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from enum import StrEnum
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from tension_opt.status import STATUS_DTYPE, Status, status_array
+
+__all__ = ["FEASIBILITY_TOL", "STATUS_DTYPE", "Status", "TensionSolution", "status_array"]
+
 if TYPE_CHECKING:
     from tension_opt.problems import StandardForm
 
 #: Relative tolerance (of the typical tension) on equilibrium and bounds of a solution.
 FEASIBILITY_TOL = 1e-6
-
-
-class Status(StrEnum):
-    """Outcome of one pose or one cable: the one status vocabulary of the toolkit.
-
-    Optimisation (tension distribution, margins) reports ``OPTIMAL``, ``INACCURATE``,
-    ``INFEASIBLE``, ``UNBOUNDED``, ``MAX_ITER``, ``SOLVER_ERROR`` or ``NOT_RUN``;
-    iterative solvers (catenary, kinematics) ``CONVERGED``, ``NOT_CONVERGED``,
-    ``INCONSISTENT`` (no pose meets the lengths), ``SLACK`` (a cable that cannot carry
-    the asked tension) or ``INDETERMINATE`` (the data do not fix the answer), besides
-    ``INFEASIBLE``. Status arrays are numpy unicode arrays of these values
-    (:func:`status_array`); compare them with ``==`` (members are strings).
-    """
-
-    OPTIMAL = "optimal"
-    INFEASIBLE = "infeasible"
-    UNBOUNDED = "unbounded"
-    INACCURATE = "inaccurate"
-    MAX_ITER = "max_iter"
-    SOLVER_ERROR = "solver_error"
-    NOT_RUN = "not_run"
-    CONVERGED = "converged"
-    NOT_CONVERGED = "not_converged"
-    INCONSISTENT = "inconsistent"
-    SLACK = "slack"
-    INDETERMINATE = "indeterminate"
-
-    def __str__(self) -> str:
-        return self.value
-
-
-#: dtype of status arrays: wide enough for every :class:`Status` value.
-STATUS_DTYPE = np.dtype(f"<U{max(len(s.value) for s in Status)}")
-
-
-def status_array(N: int, fill: Status = Status.OPTIMAL) -> NDArray:
-    """Array of ``N`` statuses, all ``fill``, shape (N,) of :data:`STATUS_DTYPE`."""
-    return np.full(N, Status(fill).value, dtype=STATUS_DTYPE)
 
 
 @dataclass(eq=False)

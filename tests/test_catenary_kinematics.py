@@ -1,4 +1,4 @@
-"""Sag-aware inverse and forward kinematics (catenary.kinematics)."""
+"""Sag-aware inverse and forward kinematics (catenary.inverse, catenary.forward)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 import tension_opt as to
-from catenary.kinematics import forward_kinematics, inverse_kinematics
+from catenary.forward import forward_kinematics
+from catenary.inverse import inverse_kinematics
 
 DATA = Path(__file__).parent / "data"
 

@@ -11,7 +11,7 @@ from scipy.optimize import minimize
 import catenary
 import tension_opt as to
 from catenary import workspace as cws
-from catenary.kinematics import _catenary, _extreme_tensions, _geometry, _platform_forces
+from catenary.geometry import cable_planes, extreme_tensions, platform_forces, taut_catenaries
 from tension_opt import workspace as ws
 
 matplotlib.use("Agg")
@@ -67,15 +67,15 @@ def test_coupled_equilibrium_and_bounds_hold_where_feasible(steel):
                   < 1e-6 * robot.weight)
     # The reported tensions (drawing-point ends) rebuild catenaries in equilibrium with
     # every cable's lowest and highest tension within the bounds.
-    geo = _geometry(robot, steel.poses[ok])
+    geo = cable_planes(robot, steel.poses[ok])
     w = robot.cable.weight_per_length(robot.g)
-    H, V_A, V_B, L0, _, conv = _catenary(geo.x, geo.z, steel.tensions[ok], w, np.inf, "B")
+    H, V_A, V_B, L0, _, conv = taut_catenaries(geo.x, geo.z, steel.tensions[ok], w, np.inf, "B")
     assert conv.all()
     np.testing.assert_allclose(L0, steel.lengths[ok], rtol=1e-9)
-    low, high = _extreme_tensions(H, V_A, V_B)
+    low, high = extreme_tensions(H, V_A, V_B)
     assert np.all(low >= robot.t_min - 1e-6 * robot.weight)
     assert np.all(high <= robot.t_max + 1e-6 * robot.weight)
-    forces = _platform_forces(geo, H, V_A).sum(axis=1)
+    forces = platform_forces(geo, H, V_A).sum(axis=1)
     np.testing.assert_allclose(forces, np.tile([0, 0, robot.weight], (ok.sum(), 1)),
                                atol=1e-6 * robot.weight)
     # The length corrections are the study's order of magnitude (0.2 m at the centre).
@@ -113,26 +113,26 @@ def test_coupled_margin_is_the_optimum_of_the_nonlinear_problem(steel):
     assert len(picks) == 4
     margins, T, _, _, _ = cws.coupled_margin(robot, steel.poses[picks])
     for k, i in enumerate(picks):
-        geo = _geometry(robot, steel.poses[i:i + 1])
+        geo = cable_planes(robot, steel.poses[i:i + 1])
 
         def cables(v, geo=geo):
             t = v[:4] * W
             if (t <= 0).any():
                 return None
-            h, va, vb, _, _, conv = _catenary(geo.x, geo.z, t[None], w, np.inf, "A")
+            h, va, vb, _, _, conv = taut_catenaries(geo.x, geo.z, t[None], w, np.inf, "A")
             return (h, va, vb) if conv.all() else None
 
         def balance(v, geo=geo, cables=cables):
             c = cables(v)
             if c is None:
                 return np.full(3, 1e3)
-            return _platform_forces(geo, c[0], c[1]).sum(axis=1)[0] / W - [0, 0, 1]
+            return platform_forces(geo, c[0], c[1]).sum(axis=1)[0] / W - [0, 0, 1]
 
         def bounds(v, cables=cables):
             c = cables(v)
             if c is None:
                 return np.full(8, -1e3)
-            low, high = (e[0] / W for e in _extreme_tensions(*c))
+            low, high = (e[0] / W for e in extreme_tensions(*c))
             s = v[4]
             return np.concatenate([low - robot.t_min / W - s, robot.t_max / W - high - s])
 

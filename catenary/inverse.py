@@ -1,0 +1,287 @@
+"""Sag-aware inverse kinematics of a cable robot: unstretched lengths and cable forces.
+
+Every cable hangs as an elastic catenary in its vertical plane
+(:mod:`catenary.geometry`). :func:`inverse_kinematics` has two models:
+
+``"thesis"``
+    The reference study's decoupled convention: tensions from the straight-line
+    distribution, each imposed as the tension magnitude at the drawing point of the
+    taut catenary. Reproduces the study's lengths; the catenary end forces then do not
+    balance the load (see ``equilibrium_residual``).
+``"coupled"``
+    Physically consistent: the catenary end forces at the platform balance the load
+    (forces and moments), with the tensions chosen by the same objectives as
+    :func:`tension_opt.distribute`; solved by sequential convex programming
+    (:class:`catenary.coupled.CoupledSolver`).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+
+import tension_opt
+from tension_opt import CableRobot, TensionProblem
+from tension_opt.backends import Backend, get_backend
+from tension_opt.problems import Objective, as_problem
+from tension_opt.solution import Status, TensionSolution, status_array
+
+from .coupled import CatenarySolution, CoupledSolver
+from .errors import InvalidCableError
+from .geometry import (
+    CablePlanes,
+    cable_data,
+    cable_planes,
+    equilibrium_residual,
+    platform_forces,
+    taut_catenaries,
+)
+from .margin import coupled_margin
+
+__all__ = ["InverseKinematicsResult", "inverse_kinematics"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class InverseKinematicsResult:
+    """Sag-aware cable lengths and forces of a batch of poses.
+
+    Attributes
+    ----------
+    lengths : ndarray, shape (N, m)
+        Unstretched cable lengths (m); NaN where a pose failed.
+    straight_lengths : ndarray, shape (N, m)
+        Distance from attachment point to drawing point (m).
+    tensions : ndarray, shape (N, m)
+        Tension magnitude at the drawing point, end B (N).
+    tensions_platform : ndarray, shape (N, m)
+        Tension magnitude at the platform attachment point, end A (N).
+    horizontal_tensions : ndarray, shape (N, m)
+        Horizontal tension ``H`` of each catenary (N).
+    platform_forces : ndarray, shape (N, m, 3)
+        Force each cable applies on the platform, base frame (N).
+    equilibrium_residual : ndarray, shape (N,)
+        Norm of the wrench (cable forces, their moments for rotating platforms, gravity
+        and the external wrench) left on the platform, restricted to the robot's
+        degrees of freedom (N, N m).
+    iterations : ndarray of int, shape (N,)
+        Sequential-convex-programming iterations per pose (linearised subproblems
+        solved after the straight-line start); 0 for the thesis model.
+    catenary_iterations : ndarray of int, shape (N, m)
+        Newton (and fallback) iterations of the single-cable solver, summed over the
+        SCP iterations.
+    status : ndarray of str, shape (N,)
+        ``Status.CONVERGED``; ``Status.INFEASIBLE`` (no tensions within the bounds
+        balance the load); ``"catenary_failed"`` (no taut catenary carries the
+        tension); ``Status.MAX_ITER`` (the SCP did not settle within its iteration
+        limit).
+    model : str
+        ``"thesis"`` or ``"coupled"``.
+    solve_time : float
+        Wall-clock time of the whole call (s).
+    """
+
+    lengths: FloatArray
+    straight_lengths: FloatArray
+    tensions: FloatArray
+    tensions_platform: FloatArray
+    horizontal_tensions: FloatArray
+    platform_forces: FloatArray
+    equilibrium_residual: FloatArray
+    iterations: NDArray[np.int64]
+    catenary_iterations: NDArray[np.int64]
+    status: NDArray[np.str_]
+    model: str
+    solve_time: float
+
+    @property
+    def sag(self) -> FloatArray:
+        """Length difference ``D = lengths - straight_lengths`` (m), shape (N, m)."""
+        return self.lengths - self.straight_lengths
+
+    @property
+    def success(self) -> NDArray[np.bool_]:
+        """Boolean mask of the poses solved, shape (N,)."""
+        return np.asarray(self.status == Status.CONVERGED, dtype=bool)
+
+    def to_frame(self) -> pd.DataFrame:
+        """Tidy table, one row per pose and cable: status, lengths, tensions, iterations."""
+        N, m = self.lengths.shape
+        return pd.DataFrame({
+            "pose": np.repeat(np.arange(N), m), "cable": np.tile(np.arange(m), N),
+            "status": np.repeat(self.status, m), "length": self.lengths.ravel(),
+            "straight_length": self.straight_lengths.ravel(), "sag": self.sag.ravel(),
+            "tension": self.tensions.ravel(),
+            "tension_platform": self.tensions_platform.ravel(),
+            "horizontal_tension": self.horizontal_tensions.ravel(),
+            "equilibrium_residual": np.repeat(self.equilibrium_residual, m),
+            "iterations": np.repeat(self.iterations, m),
+            "catenary_iterations": self.catenary_iterations.ravel(),
+        })
+
+
+def inverse_kinematics(
+    robot: CableRobot,
+    poses: ArrayLike,
+    model: Literal["thesis", "coupled"] = "thesis",
+    objective: str | Objective | TensionProblem = "min_sum",
+    backend: str | Backend = "auto",
+    wrench: ArrayLike | None = None,
+    *,
+    tol: float = 1e-10,
+    max_iter: int = 50,
+    initial_tensions: ArrayLike | None = None,
+    **options: Any,
+) -> InverseKinematicsResult:
+    """Unstretched cable lengths and cable forces of a batch of poses, with sag.
+
+    Parameters
+    ----------
+    robot : CableRobot
+        Needs ``robot.cable`` (weight per length ``linear_mass * g`` and ``EA``).
+    poses : array_like, shape (N, n) or (n,)
+        Platform poses (m, rad); see :mod:`tension_opt.robot`.
+    model : {"thesis", "coupled"}
+        ``"thesis"``: the reference study's decoupled convention: the straight-line
+        distribution (``objective``) gives each tension, imposed at the drawing point of
+        the taut catenary through both ends. ``"coupled"``: the catenary end forces at
+        the platform balance the load (Notes).
+    objective : str or TensionProblem
+        As in :func:`tension_opt.distribute` (``"min_sum"``, ``"min_norm"``, ...).
+        In the coupled model it is applied to the platform-end tensions; smoothing
+        and rate limits are not supported there.
+    backend : str or Backend
+        As in :func:`tension_opt.distribute`; ``"auto"`` picks the fastest exact one.
+    wrench : array_like, shape (n,) or (N, n), optional
+        External wrench on the platform besides gravity (N, N m).
+    tol : float
+        Coupled model: stop when the tensions change less than ``tol`` relative to
+        the largest tension of the pose.
+    max_iter : int
+        Coupled model: iteration limit of the sequential convex programming.
+    initial_tensions : array_like, shape (N, m), optional
+        Coupled model: platform-end tensions (N) to start from, for the poses whose
+        row is finite, even where the straight-line distribution is infeasible. Without
+        it, poses whose straight-line distribution is infeasible start from the coupled
+        capacity-margin search (sag can make them feasible).
+    **options
+        Passed to the backend.
+
+    Returns
+    -------
+    InverseKinematicsResult
+        Lengths (N, m), tensions at both ends (N, m), platform forces (N, m, 3),
+        equilibrium residual (N,), iteration counts and per-pose status.
+
+    Notes
+    -----
+    The coupled model iterates on the platform-end tensions ``t`` from the straight-line
+    distribution by sequential convex programming (:mod:`catenary.coupled`) until ``t``
+    changes less than ``tol``. At that fixed point the catenary end forces balance the
+    load exactly, within the bounds, and ``t`` is optimal for the objective among the
+    tensions with the same end-force directions.
+    """
+    t0 = time.perf_counter()
+    if model not in ("thesis", "coupled"):
+        raise InvalidCableError(f'model must be "thesis" or "coupled"; got model={model!r}')
+    w, EA = cable_data(robot)
+    p = robot.as_poses(poses)
+    planes = cable_planes(robot, p)
+    straight = tension_opt.distribute(robot, p, objective, backend, wrench=wrench, **options)
+    # Weightless cables are straight: the straight-line distribution is then also the
+    # coupled solution, and the thesis convention computes its catenaries.
+    if model == "coupled" and w > 0.0:
+        tensions, attempt = _coupled_start(robot, p, straight, initial_tensions, wrench,
+                                           backend, dict(options, tol=tol, max_iter=max_iter))
+        chosen = backend if isinstance(backend, Backend) else get_backend(straight.backend)
+        solution = CoupledSolver(robot, p, planes, as_problem(objective), chosen,
+                                 robot.required_wrench(p, wrench), (w, EA), tol=tol,
+                                 max_iter=max_iter, options=options).solve(tensions, attempt)
+    else:
+        solution = _thesis(planes, straight.tensions, straight.success, w, EA)
+    return _result(robot, p, wrench, planes, solution, model, time.perf_counter() - t0)
+
+
+def _coupled_start(robot: CableRobot, poses: FloatArray, straight: TensionSolution,
+                   initial_tensions: ArrayLike | None, wrench: ArrayLike | None,
+                   backend: str | Backend, options: dict[str, Any]
+                   ) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """Platform-end tensions (N, m) to start the coupled model from, and the poses to
+    attempt (N,).
+
+    The straight-line distribution, replaced by the finite rows of ``initial_tensions``
+    when given; else, where no straight-line tensions fit the bounds, by the tensions
+    the coupled capacity-margin search finds, since sag can widen the workspace.
+    ``options`` holds the backend's options and the margin's ``tol`` and ``max_iter``.
+    """
+    N, m = poses.shape[0], robot.m
+    tensions, attempt = straight.tensions, straight.success.copy()
+    if initial_tensions is not None:
+        start = np.broadcast_to(np.asarray(initial_tensions, dtype=float), (N, m))
+    elif attempt.all():
+        return tensions, attempt
+    else:
+        idx = np.flatnonzero(~attempt)
+        start = np.full((N, m), np.nan)
+        wk = None
+        if wrench is not None:
+            wr = np.asarray(wrench, dtype=float)
+            wk = wr[idx] if wr.ndim == 2 else wr
+        margin, T_m, m_status, _, _ = coupled_margin(robot, poses[idx], wk, backend,
+                                                     **options)
+        slack = 1e-9 * np.nanmax(np.abs(T_m), axis=1, initial=0.0)
+        found = (m_status == Status.CONVERGED) & (margin >= -slack)
+        start[idx[found]] = T_m[found]
+    given = np.isfinite(start).all(axis=1)
+    return np.where(given[:, None], start, tensions), attempt | given
+
+
+def _thesis(planes: CablePlanes, tensions: FloatArray, attempt: NDArray[np.bool_],
+            w: float, EA: float) -> CatenarySolution:
+    """The thesis convention: taut catenaries with the drawing-point tensions of the
+    poses ``attempt``."""
+    N, m = planes.x.shape
+    H, V_A, V_B, L0 = (np.full((N, m), np.nan) for _ in range(4))
+    status = status_array(N, Status.INFEASIBLE)
+    status[attempt] = Status.CONVERGED
+    cat_its = np.zeros((N, m), np.int64)
+    idx = np.flatnonzero(attempt)
+    if idx.size:
+        c = taut_catenaries(planes.x[idx], planes.z[idx], tensions[idx], w, EA, "B")
+        cat_its[idx] += c.iterations
+        status[idx[~c.converged.all(axis=1)]] = Status.CATENARY_FAILED
+        H[idx], V_A[idx], V_B[idx], L0[idx] = c.H, c.V_A, c.V_B, c.L0
+    return CatenarySolution(H, V_A, V_B, L0, tensions, status, np.zeros(N, np.int64),
+                            cat_its)
+
+
+def _result(robot: CableRobot, poses: FloatArray, wrench: ArrayLike | None,
+            planes: CablePlanes, solution: CatenarySolution, model: str,
+            solve_time: float) -> InverseKinematicsResult:
+    """The result of a solution: NaN catenaries where it failed, forces, residuals."""
+    failed = ~np.isin(solution.status, (Status.CONVERGED, Status.MAX_ITER))[:, None]
+    H, V_A, V_B, L0 = (np.where(failed, np.nan, a)
+                       for a in (solution.H, solution.V_A, solution.V_B, solution.L0))
+    forces = platform_forces(planes, H, V_A)
+    residual = equilibrium_residual(robot, forces, planes.arms,
+                                    robot.required_wrench(poses, wrench))
+    return InverseKinematicsResult(
+        lengths=L0,
+        straight_lengths=planes.chord,
+        tensions=np.hypot(H, V_B),
+        tensions_platform=np.hypot(H, V_A),
+        horizontal_tensions=H,
+        platform_forces=forces,
+        equilibrium_residual=residual,
+        iterations=solution.iterations,
+        catenary_iterations=solution.catenary_iterations,
+        status=solution.status,
+        model=model,
+        solve_time=solve_time,
+    )
