@@ -12,6 +12,12 @@
     python -m benchmarks study PARAMETER [--values V ...] [--pose X Y Z ...] [--out CSV]
                                               # a parameter study of the reference robot
 
+Backends, scenarios, problems and settings are checked before anything runs: a name
+that is unknown or not installed exits with code 2, storing nothing. The rows go to an
+SQLite database in the results directory; after a run ``results.csv``, ``traces.npz``
+and the report are exported from it. A store that cannot be read exits with code 1 and
+a message naming the file and how to recover.
+
 Without ``--executor`` every cell runs in a forked worker process that is killed when the
 cell overruns its time limit. With ``--executor`` the cells go in chunks to a process pool
 or a Dask cluster (``pip install "tension-opt[dask]"``); the time limit is then only
@@ -31,6 +37,7 @@ from typing import Any
 
 import pandas as pd
 
+import tension_opt
 from benchmarks import harness, report, studies
 from benchmarks.scenarios import PROBLEMS, SCENARIOS
 from benchmarks.study_points import ROBOT_OVERRIDES, parameter_names
@@ -64,7 +71,8 @@ def build_parser() -> argparse.ArgumentParser:
                              "dask[:ADDRESS] or inprocess; see 'run --help'")
     sub = parser.add_subparsers(dest="command")
     _add_run(sub.add_parser("run", help="run cells not yet stored (then write the report)"))
-    sub.add_parser("report", help="write README.md and the plots from the stored results")
+    _add_results(sub.add_parser("report", help="write results.csv, traces.npz, README.md "
+                                               "and the plots from the stored results"))
     sub.add_parser("list", help="list scenarios, problems and installed backends")
     _add_study(sub.add_parser(
         "study", help="sweep one parameter of the reference robot (a parameter study)",
@@ -73,7 +81,14 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _add_results(command: argparse.ArgumentParser) -> None:
+    # Also after the command; when absent there, the value before it stands.
+    command.add_argument("--results", type=Path, default=argparse.SUPPRESS,
+                         help="results directory (default: benchmarks/results)")
+
+
 def _add_run(run: argparse.ArgumentParser) -> None:
+    _add_results(run)
     run.add_argument("--scenario", nargs="+", metavar="S", help=f"among {list(SCENARIOS)}")
     run.add_argument("--problem", nargs="+", metavar="P", help=f"among {list(PROBLEMS)}")
     run.add_argument("--backend", nargs="+", metavar="B",
@@ -119,7 +134,34 @@ def _add_study(study: argparse.ArgumentParser) -> None:
     study.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
+def _check_backends(names: Sequence[str] | None) -> None:
+    """Raise ValueError, listing the installed backends, if a named one cannot run here."""
+    reasons = []
+    for name in names or ():
+        try:
+            tension_opt.get_backend(name)
+        except (BackendNotAvailableError, ValueError) as exc:
+            # The registry's message names the backend and may list the installed ones:
+            # they are listed once, below.
+            reasons.append(str(exc).split("; installed:")[0])
+    if reasons:
+        raise ValueError(f"--backend: {'; '.join(reasons)}; installed backends: "
+                         f"{', '.join(tension_opt.available_backends())}")
+
+
+def _write_report(store: harness.ResultsStore) -> None:
+    """Export the table and write the report from one state of the store.
+
+    Other runs into the same directory wait meanwhile, so the last report written holds
+    every row.
+    """
+    with store.exclusive():
+        store.export()
+        print(f"report: {report.write_report(store.directory)}")
+
+
 def _run(args: argparse.Namespace) -> int:
+    _check_backends(args.backend)
     settings = (harness.ALL_SETTINGS if not args.settings
                 else [s for text in args.settings for s in harness.Setting.parse(text)])
     cells = harness.plan(
@@ -145,13 +187,11 @@ def _run(args: argparse.Namespace) -> int:
                                 progress=not args.no_progress, executor=executor)
     print(harness.summary(frame, cells, time.perf_counter() - start))
     if not args.no_report:
-        print(f"report: {report.write_report(args.results)}")
+        _write_report(store)
     return 0
 
 
 def _list() -> int:
-    import tension_opt
-
     print("scenarios:")
     for s in SCENARIOS.values():
         print(f"  {s.name:20s} {s.description}")
@@ -225,11 +265,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command == "run":
             return _run(args)
         if args.command == "report":
-            print(f"report: {report.write_report(args.results)}")
+            _write_report(harness.ResultsStore(args.results))
             return 0
         if args.command == "study":
             return _study(args)
         return _list()
+    except harness.StoreError as exc:  # not a usage error: no usage line
+        print(f"{parser.prog}: error: {exc}", file=sys.stderr)
+        return 1
     except (ValueError, BackendNotAvailableError) as exc:
         parser.error(str(exc))
     return 2

@@ -9,14 +9,17 @@ Each cell becomes one row of a tidy table. :func:`run` composes the parts:
 - :mod:`benchmarks.distributed`: cells in chunks on a process pool or a Dask cluster
   (``executor=``; ``python -m benchmarks run --executor processes:2`` or
   ``--executor dask:tcp://host:8786``);
-- :mod:`benchmarks.store`: ``results.csv`` and ``traces.npz``, safe to interrupt; a new
-  run skips the cells already stored unless told to redo them.
+- :mod:`benchmarks.store`: the rows in an SQLite database, one transaction per chunk of
+  cells (concurrent runs and kills lose nothing and keep nothing torn), exported to
+  ``results.csv`` and ``traces.npz`` after the run; a new run skips the cells already
+  stored unless told to redo them.
 
 The names of those modules that callers use are importable from here too.
 """
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Generator, Sequence
 from typing import Any
@@ -66,11 +69,13 @@ from benchmarks.runner import (
 )
 from benchmarks.store import (
     CONSOLIDATE_EVERY,
+    DATABASE_FILE,
     JOURNAL_FILE,
     RESULTS_DIR,
     RESULTS_FILE,
     TRACES_FILE,
     ResultsStore,
+    StoreError,
     machine_label,
 )
 from tension_opt.executors import Executor
@@ -79,6 +84,7 @@ __all__ = [
     "ALL_SETTINGS",
     "CHUNK_CELLS",
     "CONSOLIDATE_EVERY",
+    "DATABASE_FILE",
     "DEFAULT_SUITE",
     "FAST_BACKENDS",
     "GRACE",
@@ -100,6 +106,7 @@ __all__ = [
     "CellResult",
     "ResultsStore",
     "Setting",
+    "StoreError",
     "SuiteRule",
     "base_row",
     "chunk_cells",
@@ -156,10 +163,11 @@ def run(
         Where the cells run (see :func:`tension_opt.executors.get_executor`):
         ``"inprocess"``, ``"processes[:N]"``, ``"dask[:ADDRESS]"``, an executor or a
         Dask client. The cells go in chunks of at most ``chunk_size`` cells of one
-        scenario; the rows are stored as the chunks come back, in order, so an
-        interrupted run keeps every chunk returned before. Rows carry the machine of
-        the worker that ran them, and rows of the cluster's machines count as done. An
-        executor named by a string is closed at the end; one passed in is left open.
+        scenario; the rows of a chunk are stored in one transaction as it comes back,
+        in order, so an interrupted run keeps every chunk returned before. Rows carry
+        the machine of the worker that ran them, and rows of the cluster's machines
+        count as done. An executor named by a string is closed at the end; one passed
+        in is left open.
         None (default): in this process, as described under ``isolate``.
     chunk_size : int, optional
         Cells per chunk sent to the executor (default: up to :data:`CHUNK_CELLS`, fewer
@@ -168,7 +176,9 @@ def run(
     Returns
     -------
     DataFrame
-        The stored table after the run (all rows, not only these cells).
+        The stored table after the run (all rows, not only these cells), also exported
+        to ``results.csv`` and ``traces.npz`` (and every :data:`CONSOLIDATE_EVERY`
+        seconds during the run).
 
     Raises
     ------
@@ -178,14 +188,18 @@ def run(
         If a worker of the process pool died (every pending chunk fails then, so the
         culprit is unknown); the rows returned before are stored. With Dask, a chunk
         whose workers keep dying becomes ``"error"`` rows and the run goes on.
+    StoreError
+        If the store cannot be read or written (the message names the file and the fix).
     """
     store = store or ResultsStore()
     keep = trace_backends(cells)
     if executor is not None:
         with open_executor(executor) as runner:
             todo = _todo(cells, store, redo, executor_machines(runner))
-            results = chunk_results(runner, todo, time_limit, chunk_size, work=run_chunk)
-            return _collect(todo, results, store, keep, progress)
+            size = _chunk_size(len(todo), runner.workers) if chunk_size is None else chunk_size
+            results = chunk_results(runner, todo, time_limit, size, work=run_chunk)
+            sizes = [len(chunk) for chunk in chunk_cells(todo, size)]
+            return _collect(todo, results, store, keep, progress, sizes)
     todo = _todo(cells, store, redo)
     if isolate:
         results = run_isolated(todo, time_limit, GRACE, run=run_cell)
@@ -201,6 +215,12 @@ def _todo(cells: Sequence[Cell], store: ResultsStore, redo: bool,
     return [c for c in cells if c.key not in done]
 
 
+def _chunk_size(cells: int, workers: int) -> int:
+    """Cells per executor chunk: up to :data:`CHUNK_CELLS`, fewer when there are not two
+    chunks per worker."""
+    return max(1, min(CHUNK_CELLS, math.ceil(cells / (2 * workers))))
+
+
 def _in_process(cells: Sequence[Cell], time_limit: float) -> Results:
     references: References = {}
     for cell in cells:
@@ -208,24 +228,44 @@ def _in_process(cells: Sequence[Cell], time_limit: float) -> Results:
 
 
 def _collect(todo: Sequence[Cell], results: Results, store: ResultsStore, keep: set[str],
-             progress: bool) -> pd.DataFrame:
-    """Store each result as it comes (with its trace if kept); return the stored table."""
+             progress: bool, sizes: Sequence[int] = ()) -> pd.DataFrame:
+    """Store the results chunk by chunk (with traces if kept); return the exported table.
+
+    ``sizes`` are the lengths of the executor's chunks, each stored in one transaction;
+    without them each cell is a chunk of its own.
+    """
     bar = _progress_bar(len(todo), progress)
     saved = time.perf_counter()
+    chunks = _chunks(results, sizes)
     try:
-        for cell, result in results:
-            store.append(result.row, result.trace if keeps_trace(cell, keep) else None)
+        for chunk in chunks:
+            store.append_many([(result.row, result.trace if keeps_trace(cell, keep) else None)
+                               for cell, result in chunk])
             if bar is not None:
-                bar.set_postfix_str("/".join(cell.key), refresh=False)
-                bar.update(1)
+                bar.set_postfix_str("/".join(chunk[-1][0].key), refresh=False)
+                bar.update(len(chunk))
             if time.perf_counter() - saved > CONSOLIDATE_EVERY:
-                store.consolidate()
+                store.export()
                 saved = time.perf_counter()
     finally:
+        chunks.close()
         results.close()  # an isolated worker is killed if the run stops early
         if bar is not None:
             bar.close()
-    return store.consolidate()
+    return store.export()
+
+
+def _chunks(results: Results, sizes: Sequence[int]) -> Generator[list[tuple[Cell, CellResult]],
+                                                                 None, None]:
+    """The results in consecutive lists of ``sizes[0]``, ``sizes[1]`` ... (then of one)."""
+    lengths = iter(sizes)
+    want = next(lengths, 1)
+    chunk: list[tuple[Cell, CellResult]] = []
+    for pair in results:
+        chunk.append(pair)
+        if len(chunk) >= want:
+            yield chunk
+            chunk, want = [], next(lengths, 1)
 
 
 def _progress_bar(total: int, enabled: bool) -> Any:

@@ -1,19 +1,39 @@
-"""Results store of the benchmark: one tidy table and the tension traces, safe to interrupt.
+"""Results store of the benchmark: an SQLite database, exported as a tidy table and traces.
 
-Rows are kept in ``results.csv`` (and the tension traces of short trajectories in
-``traces.npz``). Each finished cell is first appended to a journal flushed to disk;
-:meth:`ResultsStore.consolidate` merges the journal into the table through temporary
-files and atomic renames, so an interrupted run loses at most the cell in progress,
-and a new run skips the cells already stored by this machine (:func:`machine_label`).
+Rows live in ``results.sqlite`` in the results directory (standard library
+:mod:`sqlite3`, write-ahead log, so it needs a local file system). The committed
+artefacts, ``results.csv`` and ``traces.npz``, are exports of it, each written to a
+temporary file and renamed over the old one.
+
+- Table ``results``: one row per cell, ``UNIQUE (scenario, problem, backend, setting)``
+  (the scenario names a seeded pose set, the same on every machine); columns
+  ``machine`` (who measured it), ``row`` (the whole row as JSON, column order kept) and
+  ``trace`` (tensions (N, m) as float32 ``.npy`` bytes, or NULL).
+- Writes: one ``BEGIN IMMEDIATE`` transaction per chunk of rows, an upsert on the key
+  (a row measured again replaces the old one in place). Concurrent runs wait for each
+  other's transaction (busy timeout :data:`BUSY_TIMEOUT`); a process killed at any
+  instant leaves whole chunks only.
+- Table ``meta``: the SHA-256 of the CSV and traces last imported or exported. A
+  results directory with a CSV the database has not seen (a fresh clone, or a CSV
+  changed since the last export) imports it, its rows winning; so does a journal
+  ``results.journal.jsonl`` left by an interrupted run of earlier versions.
+
+A store that cannot be read raises :class:`StoreError`, naming the file and the way out.
 """
 
 from __future__ import annotations
 
+import contextlib
+import csv
+import hashlib
+import io
 import json
 import os
 import platform
+import sqlite3
 import sys
-from collections.abc import Collection
+import threading
+from collections.abc import Callable, Collection, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -24,24 +44,63 @@ from numpy.typing import NDArray
 from benchmarks.plan import KEY
 
 __all__ = [
+    "BUSY_TIMEOUT",
     "CONSOLIDATE_EVERY",
+    "DATABASE_FILE",
     "JOURNAL_FILE",
     "RESULTS_DIR",
     "RESULTS_FILE",
     "TRACES_FILE",
+    "Entry",
     "Key",
     "ResultsStore",
+    "StoreError",
     "machine_label",
 ]
 
 RESULTS_DIR = Path(__file__).resolve().parent / "results"
 RESULTS_FILE = "results.csv"
 TRACES_FILE = "traces.npz"
+DATABASE_FILE = "results.sqlite"
+#: Journal of earlier versions of the store; imported once if a run left one behind.
 JOURNAL_FILE = "results.journal.jsonl"
-#: Seconds between merges of the journal into the results table during a run.
+#: Seconds between exports of the table during a run.
 CONSOLIDATE_EVERY = 30.0
+#: Seconds a write waits for another process's transaction before giving up.
+BUSY_TIMEOUT = 600.0
 
 Key = tuple[str, ...]
+#: One cell's row and its trace (N, m) (N) or None.
+Entry = tuple[dict[str, Any], NDArray | None]
+
+_SCHEMA_VERSION = 1
+_COLUMNS = ", ".join(KEY)
+_SCHEMA = (
+    f"""CREATE TABLE IF NOT EXISTS results (
+        {", ".join(f"{k} TEXT NOT NULL" for k in KEY)},
+        machine TEXT NOT NULL,
+        row TEXT NOT NULL,
+        trace BLOB,
+        UNIQUE ({_COLUMNS}))""",
+    "CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT)",
+)
+# A row measured again replaces the old one in place; a row without a trace keeps the
+# trace stored before.
+_UPSERT = (f"INSERT INTO results ({_COLUMNS}, machine, row, trace) "
+           f"VALUES ({', '.join('?' * (len(KEY) + 3))}) ON CONFLICT ({_COLUMNS}) DO UPDATE "
+           "SET machine = excluded.machine, row = excluded.row, "
+           "trace = COALESCE(excluded.trace, results.trace)")
+_SET_TRACE = f"UPDATE results SET trace = ? WHERE ({_COLUMNS}) = ({', '.join('?' * len(KEY))})"
+_SET_META = ("INSERT INTO meta (name, value) VALUES (?, ?) "
+             "ON CONFLICT (name) DO UPDATE SET value = excluded.value")
+
+#: Connection holding the write lock of a database in this thread (see
+#: :meth:`ResultsStore.exclusive`), by (database path, thread).
+_HELD: dict[tuple[str, int], sqlite3.Connection] = {}
+
+
+class StoreError(RuntimeError):
+    """The results store cannot be read or written; the message names the file and the fix."""
 
 
 def machine_label() -> str:
@@ -51,13 +110,11 @@ def machine_label() -> str:
 
 
 class ResultsStore:
-    """Results table and tension traces of one directory, safe against interruption.
+    """Results table and tension traces of one directory, transactional.
 
-    Each finished cell is appended (and flushed to disk) as one JSON line to a journal,
-    ``results.journal.jsonl``; :meth:`consolidate` merges the journal into
-    ``results.csv`` and ``traces.npz``, each written to a temporary file and renamed,
-    then removes the journal. Reading merges both, the journal winning, and ignores a
-    torn last line, so an interrupted run loses at most the cell in progress.
+    Rows are kept in ``results.sqlite``; :meth:`export` writes ``results.csv`` and
+    ``traces.npz`` from it. See the module's documentation for the schema and the
+    guarantees (concurrent runs, kills, imports of an existing CSV).
 
     Parameters
     ----------
@@ -70,41 +127,30 @@ class ResultsStore:
         self.results_path = self.directory / RESULTS_FILE
         self.traces_path = self.directory / TRACES_FILE
         self.journal_path = self.directory / JOURNAL_FILE
+        self.database_path = self.directory / DATABASE_FILE
+        self._synced = False
 
     # reading
     def read(self) -> tuple[dict[Key, dict[str, Any]], dict[Key, NDArray]]:
         """Rows and traces by key (scenario, problem, backend, setting), in stored order."""
-        rows: dict[Key, dict[str, Any]] = {}
-        traces: dict[Key, NDArray] = {}
-        if self.results_path.exists():
-            frame = pd.read_csv(self.results_path, keep_default_na=False,
-                                na_values=["", "nan", "NaN"])
-            for row in frame.to_dict("records"):
-                rows[_key(row)] = row
-        if self.traces_path.exists():
-            with np.load(self.traces_path) as data:
-                traces.update({tuple(k.split("|")): data[k] for k in data.files})
-        if self.journal_path.exists():
-            for line in self.journal_path.read_text().splitlines():
-                try:
-                    entry = json.loads(line)
-                except json.JSONDecodeError:  # torn write of an interrupted run
-                    continue
-                key = _key(entry["row"])
-                rows.pop(key, None)
-                rows[key] = entry["row"]
-                if entry.get("trace") is not None:
-                    traces[key] = np.asarray(entry["trace"], dtype=float)
-        return rows, traces
+        with self._reading() as conn:
+            return ({}, {}) if conn is None else self._read_all(conn)
 
     def load(self) -> pd.DataFrame:
         """The stored table (empty, with the key columns, if there is none)."""
-        rows, _ = self.read()
-        return _frame(rows)
+        with self._reading() as conn:
+            texts = [] if conn is None else conn.execute(
+                "SELECT row FROM results ORDER BY rowid").fetchall()
+        rows = (self._decode_row(text) for (text,) in texts)
+        return _frame({_key(row): row for row in rows})
 
     def load_traces(self) -> dict[Key, NDArray]:
         """Stored traces by key, each of shape (N, m) (N)."""
-        return self.read()[1]
+        with self._reading() as conn:
+            found = [] if conn is None else conn.execute(
+                f"SELECT {_COLUMNS}, trace FROM results WHERE trace IS NOT NULL "
+                "ORDER BY rowid").fetchall()
+        return {tuple(item[:-1]): self._decode_trace(item[-1]) for item in found}
 
     def done(self, machines: Collection[str] | None = None) -> set[Key]:
         """Keys of the rows stored by this machine (rows measured elsewhere are re-run).
@@ -116,41 +162,364 @@ class ResultsStore:
             workers of a cluster. Default: this machine only.
         """
         here = {machine_label()} if machines is None else set(machines)
-        return {key for key, row in self.read()[0].items() if row.get("machine") in here}
+        with self._reading() as conn:
+            found = [] if conn is None else conn.execute(
+                f"SELECT {_COLUMNS}, machine FROM results").fetchall()
+        return {tuple(item[:-1]) for item in found if item[-1] in here}
 
     # writing
     def append(self, row: dict[str, Any], trace: NDArray | None = None) -> None:
-        """Add one cell's row (and trace, (N, m) in N) to the journal, flushed to disk."""
-        self.directory.mkdir(parents=True, exist_ok=True)
-        entry = {"row": row, "trace": None if trace is None else np.round(trace, 3).tolist()}
-        with open(self.journal_path, "a") as f:
-            f.write(json.dumps(entry, default=_json_default) + "\n")
-            f.flush()
-            os.fsync(f.fileno())
+        """Store one cell's row (and trace, (N, m) in N), replacing a row of the same key."""
+        self.append_many([(row, trace)])
+
+    def append_many(self, entries: Iterable[Entry]) -> None:
+        """Store a chunk of rows (and traces) in one transaction: all of them or none.
+
+        Parameters
+        ----------
+        entries : iterable of (dict, ndarray or None)
+            Rows with their traces (N, m) (N); a row replaces the stored row of its key,
+            and keeps the stored trace if it comes without one.
+        """
+        params = [_params(row, trace) for row, trace in entries]
+        if params:
+            with self._writing() as conn:
+                conn.executemany(_UPSERT, params)
+
+    def export(self) -> pd.DataFrame:
+        """Write ``results.csv`` and ``traces.npz`` from the database; return the table.
+
+        Each file is written to a temporary file and renamed over the old one, under the
+        store's write lock, so concurrent exports never mix and a kill leaves the old or
+        the new file. A file that already holds the same table or traces is left
+        untouched, and nothing is written while the store holds no row.
+        """
+        if not self._sync():
+            return _frame({})
+        with self._writing() as conn:
+            rows, traces = self._read_all(conn)
+            frame = _frame(rows)
+            if rows:
+                data = frame.to_csv(index=False, float_format="%.6g").encode()
+                conn.execute(_SET_META, (RESULTS_FILE, _replace(self.results_path, data)))
+            if traces:
+                buffer = io.BytesIO()
+                # Any: a dict unpacked into **kwds would otherwise have to fit allow_pickle.
+                arrays: dict[str, Any] = {"|".join(k): v for k, v in traces.items()}
+                np.savez_compressed(buffer, **arrays)
+                digest = _replace(self.traces_path, buffer.getvalue(),
+                                  lambda old: _same_traces(old, arrays))
+                conn.execute(_SET_META, (TRACES_FILE, digest))
+        return frame
 
     def consolidate(self) -> pd.DataFrame:
-        """Merge the journal into the table and the traces; return the table."""
-        rows, traces = self.read()
-        frame = _frame(rows)
-        if not rows and not self.journal_path.exists():
-            return frame
-        self.directory.mkdir(parents=True, exist_ok=True)
-        if traces:
-            tmp = self.traces_path.with_name(self.traces_path.name + ".tmp.npz")
-            # Any: a dict unpacked into **kwds would otherwise have to fit allow_pickle too.
-            arrays: dict[str, Any] = {"|".join(k): v.astype(np.float32)
-                                      for k, v in traces.items()}
-            np.savez_compressed(tmp, **arrays)
-            os.replace(tmp, self.traces_path)
-        tmp = self.results_path.with_suffix(".csv.tmp")
-        frame.to_csv(tmp, index=False, float_format="%.6g")
-        os.replace(tmp, self.results_path)
-        self.journal_path.unlink(missing_ok=True)
-        return frame
+        """Same as :meth:`export` (the name of earlier versions)."""
+        return self.export()
+
+    @contextlib.contextmanager
+    def exclusive(self) -> Iterator[None]:
+        """Hold the store's write lock: other processes' writes and exports wait.
+
+        Inside, every store of this directory in this thread reads and writes through the
+        held transaction, so e.g. a report written there sees what was just exported.
+        """
+        if _lock_name(self.database_path) in _HELD:
+            yield
+            return
+        with self._writing() as conn:
+            _HELD[_lock_name(self.database_path)] = conn
+            try:
+                yield
+            finally:
+                del _HELD[_lock_name(self.database_path)]
+
+    # connections
+    @contextlib.contextmanager
+    def _reading(self) -> Iterator[sqlite3.Connection | None]:
+        """A connection to read from, or None if nothing was ever stored here."""
+        with self._errors():
+            held = _HELD.get(_lock_name(self.database_path))
+            if held is not None:
+                self._sync()
+                yield held
+            elif not self._sync():
+                yield None
+            else:
+                with contextlib.closing(_connect(self.database_path)) as conn:
+                    yield conn
+
+    @contextlib.contextmanager
+    def _writing(self) -> Iterator[sqlite3.Connection]:
+        """A connection inside a write transaction, committed at the end (else rolled back)."""
+        with self._errors():
+            held = _HELD.get(_lock_name(self.database_path))
+            if held is not None:
+                self._sync()
+                yield held
+                return
+            self.directory.mkdir(parents=True, exist_ok=True)
+            self._sync(create=True)
+            with contextlib.closing(_connect(self.database_path)) as conn, _transaction(conn):
+                yield conn
+
+    def _sync(self, create: bool = False) -> bool:
+        """Make the database current with the CSV, traces and journal beside it, once.
+
+        Returns whether there is a database (False: nothing stored and ``create`` false).
+        """
+        if self._synced:
+            return True
+        held = _HELD.get(_lock_name(self.database_path))
+        if held is not None:
+            with self._errors():
+                self._import(held)
+            self._synced = True
+            return True
+        sources = (self.results_path, self.traces_path, self.journal_path)
+        if not (create or self.database_path.exists() or any(p.exists() for p in sources)):
+            return False
+        with self._errors(), contextlib.closing(_connect(self.database_path)) as conn:
+            if self._stale(conn):
+                with _transaction(conn):
+                    journal = self._import(conn)
+                if journal:  # merged and committed: the rows are in the database now
+                    self.journal_path.unlink(missing_ok=True)
+        self._synced = True
+        return True
+
+    def _stale(self, conn: sqlite3.Connection) -> bool:
+        """Whether the database lacks the schema or a CSV, traces or journal it has not seen."""
+        version = conn.execute("PRAGMA user_version").fetchone()[0]
+        if version > _SCHEMA_VERSION:
+            raise StoreError(f"{self.database_path} was written by a newer version of the "
+                             "benchmarks; update them, or delete the file to rebuild it from "
+                             f"{self.results_path}")
+        if version < _SCHEMA_VERSION:
+            return True
+        seen = dict(conn.execute("SELECT name, value FROM meta").fetchall())
+        return any(path.exists() and _digest(path.read_bytes()) != seen.get(path.name)
+                   for path in (self.results_path, self.traces_path, self.journal_path))
+
+    def _import(self, conn: sqlite3.Connection) -> bool:
+        """Create the schema and import the files not seen yet (within a write transaction).
+
+        Returns whether a journal was imported.
+        """
+        fresh = conn.execute("PRAGMA user_version").fetchone()[0] < _SCHEMA_VERSION
+        if fresh:
+            for statement in _SCHEMA:
+                conn.execute(statement)
+            conn.execute(f"PRAGMA user_version = {_SCHEMA_VERSION}")
+        seen = dict(conn.execute("SELECT name, value FROM meta").fetchall())
+        journal = False
+        for path in (self.results_path, self.traces_path, self.journal_path):
+            data = path.read_bytes() if path.exists() else None
+            if data is None or _digest(data) == seen.get(path.name):
+                continue
+            if path == self.results_path:
+                rows = self._parse_csv(data, fresh)
+                conn.executemany(_UPSERT, [_params(row, None) for row in rows])
+            elif path == self.traces_path:
+                traces = self._parse_traces(data, fresh)
+                conn.executemany(_SET_TRACE, [(_encode_trace(v), *k) for k, v in traces.items()])
+            else:
+                conn.executemany(_UPSERT, [_params(*e) for e in _parse_journal(data)])
+                journal = True
+            conn.execute(_SET_META, (path.name, _digest(data)))
+        return journal
+
+    def _read_all(self, conn: sqlite3.Connection,
+                  ) -> tuple[dict[Key, dict[str, Any]], dict[Key, NDArray]]:
+        rows: dict[Key, dict[str, Any]] = {}
+        traces: dict[Key, NDArray] = {}
+        for text, blob in conn.execute("SELECT row, trace FROM results ORDER BY rowid"):
+            row = self._decode_row(text)
+            rows[_key(row)] = row
+            if blob is not None:
+                traces[_key(row)] = self._decode_trace(blob)
+        return rows, traces
+
+    # errors and decoding
+    def _recovery(self) -> str:
+        return (f"delete {self.database_path} (with its -wal and -shm files if any): it is "
+                f"rebuilt from {self.results_path}, which holds the rows of every finished "
+                "run; rows measured since are run again")
+
+    @contextlib.contextmanager
+    def _errors(self) -> Iterator[None]:
+        """Turn sqlite3's errors into :class:`StoreError` naming the database and the fix."""
+        try:
+            yield
+        except sqlite3.OperationalError as exc:
+            if "locked" in str(exc) or "busy" in str(exc):
+                raise StoreError(
+                    f"{self.database_path} stayed locked by another process for "
+                    f"{BUSY_TIMEOUT:g} s ({exc}); let it finish, or stop it and run "
+                    "again") from exc
+            raise StoreError(f"cannot use the results database {self.database_path}: {exc}; "
+                             f"check that its directory is writable, else "
+                             f"{self._recovery()}") from exc
+        except sqlite3.DatabaseError as exc:  # not a database, malformed pages ...
+            raise StoreError(f"{self.database_path} is not a readable results database "
+                             f"({exc}); {self._recovery()}") from exc
+
+    def _decode_row(self, text: str) -> dict[str, Any]:
+        try:
+            row = json.loads(text)
+            _key(row)
+        except (ValueError, TypeError, KeyError) as exc:
+            raise StoreError(f"{self.database_path} holds a broken row ({exc}); "
+                             f"{self._recovery()}") from exc
+        return dict(row)
+
+    def _decode_trace(self, blob: bytes) -> NDArray:
+        try:
+            return np.load(io.BytesIO(blob), allow_pickle=False)
+        except (ValueError, OSError, EOFError) as exc:
+            raise StoreError(f"{self.database_path} holds a broken trace ({exc}); "
+                             f"{self._recovery()}") from exc
+
+    def _file_error(self, path: Path, what: str, exc: Exception, fresh: bool) -> StoreError:
+        keep = ("a run then starts from an empty table" if fresh
+                else "the database keeps the rows and the next run writes it again")
+        return StoreError(f"{path} is not a readable {what} ({exc}); restore it (the "
+                          f"committed copy) or delete it: {keep}")
+
+    def _parse_csv(self, data: bytes, fresh: bool) -> list[dict[str, Any]]:
+        """Rows of a results CSV, checked whole: a cut or garbled file raises StoreError."""
+        try:
+            text = data.decode("utf-8")
+            _check_csv(text)
+            frame = pd.read_csv(io.StringIO(text), keep_default_na=False,
+                                na_values=["", "nan", "NaN"])
+        except (UnicodeDecodeError, csv.Error, ValueError) as exc:
+            raise self._file_error(self.results_path, "results table", exc, fresh) from exc
+        return frame.to_dict("records")
+
+    def _parse_traces(self, data: bytes, fresh: bool) -> dict[Key, NDArray]:
+        try:
+            with np.load(io.BytesIO(data), allow_pickle=False) as found:
+                return {tuple(k.split("|")): found[k] for k in found.files}
+        except Exception as exc:  # zipfile, zlib and numpy each raise their own errors
+            raise self._file_error(self.traces_path, "traces archive", exc, fresh) from exc
+
+
+def _check_csv(text: str) -> None:
+    """Raise ValueError unless ``text`` is a whole table with the key columns in each row."""
+    if "\x00" in text:
+        raise ValueError("binary data")
+    if not text:
+        raise ValueError("the file is empty")
+    if not text.endswith("\n"):
+        raise ValueError("the last line is cut: the file does not end with a line end")
+    reader = csv.reader(io.StringIO(text), strict=True)
+    header = next(reader, [])
+    missing = [k for k in KEY if k not in header]
+    if missing:
+        raise ValueError(f"no column {missing[0]!r} in the header")
+    places = [header.index(k) for k in KEY]
+    for record in reader:
+        if not record:  # a blank line, skipped by pandas too
+            continue
+        if len(record) != len(header):
+            raise ValueError(f"line {reader.line_num} has {len(record)} fields, "
+                             f"the header {len(header)}")
+        if not all(record[i] for i in places):
+            raise ValueError(f"line {reader.line_num} lacks a key field {list(KEY)}")
+
+
+def _parse_journal(data: bytes) -> list[Entry]:
+    """Entries of a journal of earlier versions; a torn last line is ignored."""
+    entries: list[Entry] = []
+    for line in data.decode("utf-8", errors="replace").splitlines():
+        try:
+            entry = json.loads(line)
+            _key(entry["row"])
+        except (ValueError, TypeError, KeyError):  # torn write of an interrupted run
+            continue
+        trace = entry.get("trace")
+        entries.append((entry["row"], None if trace is None else np.asarray(trace, float)))
+    return entries
+
+
+def _connect(path: Path) -> sqlite3.Connection:
+    # Autocommit mode: transactions are explicit (see _transaction).
+    conn = sqlite3.connect(path, timeout=BUSY_TIMEOUT, isolation_level=None)
+    conn.execute(f"PRAGMA busy_timeout = {int(BUSY_TIMEOUT * 1000)}")
+    conn.execute("PRAGMA journal_mode = WAL")
+    conn.execute("PRAGMA synchronous = FULL")  # a committed chunk survives a power cut
+    return conn
+
+
+@contextlib.contextmanager
+def _transaction(conn: sqlite3.Connection) -> Iterator[None]:
+    """``BEGIN IMMEDIATE`` (takes the write lock at once) ... ``COMMIT``, else rollback."""
+    conn.execute("BEGIN IMMEDIATE")
+    try:
+        yield
+    except BaseException:
+        conn.execute("ROLLBACK")
+        raise
+    conn.execute("COMMIT")
+
+
+def _lock_name(path: Path) -> tuple[str, int]:
+    return os.path.realpath(path), threading.get_ident()
+
+
+def _replace(path: Path, data: bytes,
+             unchanged: Callable[[bytes], bool] | None = None) -> str:
+    """Write ``data`` to ``path`` through a temporary file and a rename; return its digest.
+
+    A file already holding ``data`` (or of which ``unchanged`` says so) is left as it is.
+    """
+    old = path.read_bytes() if path.exists() else None
+    if old is not None and (old == data or (unchanged is not None and unchanged(old))):
+        return _digest(old)
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return _digest(data)
+
+
+def _same_traces(data: bytes, arrays: dict[str, NDArray]) -> bool:
+    """Whether an ``.npz`` archive holds exactly ``arrays`` (its zip dates may differ)."""
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as found:
+            return set(found.files) == set(arrays) and all(
+                np.array_equal(found[k], v, equal_nan=True) for k, v in arrays.items())
+    except Exception:  # not an archive: it is replaced
+        return False
+
+
+def _digest(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
 
 
 def _key(row: dict[str, Any]) -> Key:
     return tuple(str(row[k]) for k in KEY)
+
+
+def _params(row: dict[str, Any], trace: NDArray | None) -> tuple[Any, ...]:
+    """The upsert's parameters of one row."""
+    return (*_key(row), str(row.get("machine", "")),
+            json.dumps(row, default=_json_default), _encode_trace(trace))
+
+
+def _encode_trace(trace: NDArray | None) -> bytes | None:
+    """A trace as ``.npy`` bytes of float32 rounded to 1e-3 (N), as the report plots it."""
+    if trace is None:
+        return None
+    buffer = io.BytesIO()
+    np.save(buffer, np.round(np.asarray(trace, dtype=float), 3).astype(np.float32),
+            allow_pickle=False)
+    return buffer.getvalue()
 
 
 def _frame(rows: dict[Key, dict[str, Any]]) -> pd.DataFrame:
