@@ -45,8 +45,8 @@ class Worker:
                  run: CellRunner = run_cell) -> None:
         ctx = mp.get_context("fork")
         self.conn, child = ctx.Pipe()
-        self.process = ctx.Process(target=_worker_loop, args=(child, cells, time_limit, run),
-                                   daemon=True)
+        self.process = ctx.Process(target=_worker_loop,
+                                   args=(child, cells, time_limit, run, self.conn), daemon=True)
         self.process.start()
         child.close()
 
@@ -78,10 +78,17 @@ class Worker:
         self.conn.close()
 
 
-def _worker_loop(conn: Any, cells: Sequence[Cell], time_limit: float, run: CellRunner) -> None:
+def _worker_loop(conn: Any, cells: Sequence[Cell], time_limit: float, run: CellRunner,
+                 parent_end: Any) -> None:
+    # The fork inherited the parent's end of the pipe: closed here, a parent that dies
+    # (even by SIGKILL) ends the pipe, and this worker with it instead of an orphan.
+    parent_end.close()
     references: References = {}
     while True:
-        index = conn.recv()
+        try:
+            index = conn.recv()
+        except (EOFError, OSError):
+            return
         if index is None:
             return
         try:
