@@ -15,15 +15,11 @@ from tension_opt.errors import (
     TensionOptError,
     UnsupportedProblemError,
 )
+from tension_opt.margin import capacity_margin
 from tension_opt.problems import Objective, TensionProblem
 from tension_opt.robot import CableProperties, CableRobot
 from tension_opt.solution import Status, TensionSolution
-from tension_opt.workspace import (
-    WorkspaceResult,
-    capacity_margin,
-    workspace_grid,
-    wrench_feasible_workspace,
-)
+from tension_opt.workspace import WorkspaceResult, workspace_grid, wrench_feasible_workspace
 
 __version__ = "0.1.0"
 

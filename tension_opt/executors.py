@@ -31,6 +31,8 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
 
+import numpy as np
+
 from tension_opt.errors import BackendNotAvailableError, InvalidInputError
 
 __all__ = [
@@ -41,6 +43,7 @@ __all__ = [
     "ProcessPoolExecutor",
     "chunk_slices",
     "get_executor",
+    "merge_chunks",
     "run_chunks",
 ]
 
@@ -309,3 +312,22 @@ def run_chunks(
     finally:
         if owned:
             runner.close()
+
+
+def merge_chunks(parts: Sequence[dict[str, Any]], keys: Sequence[str]) -> dict[str, np.ndarray]:
+    """Per-chunk arrays joined in chunk order, the inverse of cutting by :func:`chunk_slices`.
+
+    Parameters
+    ----------
+    parts : sequence of dict
+        Results of :func:`run_chunks`, one per chunk, each holding arrays whose first
+        axis runs over the chunk's items.
+    keys : sequence of str
+        The fields to join.
+
+    Returns
+    -------
+    dict
+        ``{key: numpy.concatenate([part[key] for part in parts])}``.
+    """
+    return {k: np.concatenate([p[k] for p in parts]) for k in keys}

@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.errors import InvalidInputError
+from tension_opt.nullspace import typical_tension
 from tension_opt.objectives import Objective, get_objective
 from tension_opt.robot import CableRobot
 
@@ -369,11 +370,9 @@ class StandardForm:
                           np.where(np.isfinite(self.lb), np.abs(self.lb), 0.0).max(axis=1))
 
     def scale(self) -> NDArray:
-        """Typical tension per pose (N), used to normalise the solvers' units, shape (N,)."""
-        col = np.linalg.norm(self.A, axis=1).max(axis=1)
-        s = np.linalg.norm(self.b, axis=1) / np.maximum(col, 1e-300)
-        finite_lb = np.where(np.isfinite(self.lb), np.abs(self.lb), 0.0).max(axis=1)
-        return np.maximum(np.maximum(s, finite_lb), 1e-12)
+        """Typical tension per pose (N), used to normalise the solvers' units, shape (N,)
+        (:func:`tension_opt.nullspace.typical_tension`)."""
+        return typical_tension(self.A, self.b, self.lb)
 
 
 def as_problem(objective: str | Objective | TensionProblem, **fields: Any) -> TensionProblem:

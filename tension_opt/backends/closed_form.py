@@ -5,7 +5,8 @@ structure matrix. In one dimension every objective is a function of a scalar ``t
 interval; in two dimensions the feasible set is a polygon and the optimum lies at the free
 minimum, on an edge line or at a vertex. Both are enumerated for all poses at once.
 For the common 3 x 4 case (a point-mass robot with four cables) the null vector comes
-from the generalised cross product, so no matrix factorisation is needed.
+from the generalised cross product, so no matrix factorisation is needed. The
+null-space pieces shared with the capacity margin live in :mod:`tension_opt.nullspace`.
 """
 
 from __future__ import annotations
@@ -16,60 +17,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tension_opt.backends import _lowdim
+from tension_opt.backends import lowdim
 from tension_opt.backends.base import Backend, RawResult
 from tension_opt.errors import BackendNotAvailableError
+from tension_opt.nullspace import RANK_TOL, min_of_max_lines, pinv_and_null, solution_set
 from tension_opt.problems import StandardForm
 from tension_opt.solution import Status, status_array
 
 #: Poses per block of the four-cable path (about 20 arrays of this length are live).
 _BLOCK = 8192
-_RANK_TOL = 1e-10
-"""A structure matrix whose smallest singular value is below this share of its largest has
-lost rank."""
-
-
-def _det3(a: NDArray, b: NDArray, c: NDArray) -> NDArray:
-    """Determinant of the 3 x 3 matrices with columns a, b, c (each (N, 3))."""
-    return (a[:, 0] * (b[:, 1] * c[:, 2] - b[:, 2] * c[:, 1])
-            - a[:, 1] * (b[:, 0] * c[:, 2] - b[:, 2] * c[:, 0])
-            + a[:, 2] * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0]))
-
-
-def pinv_and_null(A: NDArray, b: NDArray, svd: tuple[NDArray, NDArray, NDArray] | None = None
-                  ) -> tuple[NDArray, NDArray]:
-    """Minimum-norm solution of ``A T = b`` and an orthonormal null-space basis.
-
-    Parameters
-    ----------
-    A : ndarray, shape (N, n, m)
-    b : ndarray, shape (N, n)
-    svd : (U, s, Vt), optional
-        ``numpy.linalg.svd(A, full_matrices=True)`` when the caller already has it
-        (shapes other than 3 x 4 use it).
-
-    Returns
-    -------
-    T_pinv : ndarray, shape (N, m)
-    Z : ndarray, shape (N, m, m - n)
-        Assumes ``A`` has full row rank.
-    """
-    _N, n, m = A.shape
-    if (n, m) == (3, 4):
-        u = [A[:, :, i] for i in range(4)]
-        null = np.stack([_det3(u[1], u[2], u[3]), -_det3(u[0], u[2], u[3]),
-                         _det3(u[0], u[1], u[3]), -_det3(u[0], u[1], u[2])], axis=1)
-        null /= np.linalg.norm(null, axis=1, keepdims=True)
-        # A particular solution through the 3 x 3 normal matrix, then projected off the null
-        # vector: the projection removes the rounding of the normal-equation solve.
-        M = np.einsum("nik,njk->nij", A, A)
-        y = np.linalg.solve(M, b[..., None])[..., 0]
-        T = np.einsum("nik,ni->nk", A, y)
-        T -= np.einsum("nk,nk->n", T, null)[:, None] * null
-        return T, null[..., None]
-    U, s, Vt = svd if svd is not None else np.linalg.svd(A, full_matrices=True)
-    T = np.einsum("nki,nk,nk->ni", Vt[:, :n, :], 1.0 / s, np.einsum("nik,ni->nk", U, b))
-    return T, np.swapaxes(Vt[:, n:, :], 1, 2)
 
 
 class ClosedFormBackend(Backend):
@@ -111,7 +67,8 @@ class ClosedFormBackend(Backend):
         # the null space.
         svd = np.linalg.svd(form.A, full_matrices=True) if (form.n, form.m) != (3, 4) else None
         sv = svd[1] if svd is not None else np.linalg.svd(form.A, compute_uv=False)
-        singular = sv[:, -1] <= _RANK_TOL * sv[:, 0]
+        # Lost rank (smallest singular value below RANK_TOL of the largest).
+        singular = sv[:, -1] <= RANK_TOL * sv[:, 0]
         if singular.any():
             return self._split_singular(form, singular)
         T0, Z = pinv_and_null(form.A, form.b, svd)
@@ -138,10 +95,7 @@ class ClosedFormBackend(Backend):
             parts = self._solve_general(form.subset(regular))
             T[regular], status[regular], unique[regular], infeas[regular] = parts
         bad = np.flatnonzero(singular)
-        A, b = form.A[bad], form.b[bad]
-        T_ls = np.einsum("nij,nj->ni", np.linalg.pinv(A, rcond=_RANK_TOL), b)
-        miss = np.linalg.norm(np.einsum("nij,nj->ni", A, T_ls) - b, axis=1)
-        in_range = miss <= _lowdim.FEAS_TOL * np.maximum(np.linalg.norm(b, axis=1), 1e-300)
+        in_range = solution_set(form.A[bad], form.b[bad]).consistent
         status[bad[in_range]] = Status.SOLVER_ERROR
         status[bad[~in_range]] = Status.INFEASIBLE
         infeas[bad] = np.where(in_range, np.nan, np.inf)
@@ -186,7 +140,7 @@ class ClosedFormBackend(Backend):
             c, q = form.c.T, form.q.T
             if form.kind == "lp":
                 slope = np.einsum("kp,kp->p", c, n)
-                flat = np.abs(slope) <= _lowdim.FLAT_TOL * np.sqrt(
+                flat = np.abs(slope) <= lowdim.FLAT_TOL * np.sqrt(
                     np.einsum("kp,kp->p", c, c) * nn)
                 # A tie: the minimum-norm point of the line, t = -Tp.n / n.n, clipped.
                 t_norm = np.clip(-np.einsum("kp,kp->p", Tp, n) / nn, lo, hi)
@@ -210,8 +164,8 @@ class ClosedFormBackend(Backend):
     def _solve_1d(self, form: StandardForm, T0: NDArray, n: NDArray, scale: NDArray
                   ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         lb, ub = form.lb, form.ub
-        lo, hi = _lowdim.interval(T0, n, lb, ub, scale)
-        lo, hi = _lowdim.widen(lo, hi, n, scale)
+        lo, hi = lowdim.interval(T0, n, lb, ub, scale)
+        lo, hi = lowdim.widen(lo, hi, n, scale)
         feasible = lo <= hi
         unique = np.ones(form.N, dtype=bool)
         kind = form.kind
@@ -221,7 +175,7 @@ class ClosedFormBackend(Backend):
             t = np.clip(t, lo, hi)
         elif kind == "lp":
             slope = np.einsum("nm,nm->n", form.c, n)
-            flat = np.abs(slope) <= _lowdim.FLAT_TOL * np.linalg.norm(form.c, axis=1)
+            flat = np.abs(slope) <= lowdim.FLAT_TOL * np.linalg.norm(form.c, axis=1)
             t = np.where(slope > 0, lo, hi)
             # Tied optimum (zero slope): minimum 2-norm on the whole interval.
             t_norm = np.clip(-np.einsum("nm,nm->n", T0, n), lo, hi)
@@ -229,11 +183,11 @@ class ClosedFormBackend(Backend):
             unique = ~flat | (lo == hi)
         else:  # min-max: minimise max_i v_i (T0_i + t n_i)
             v = form.minmax
-            t, fstar = _lowdim.min_of_max_lines(v * n, v * T0, lo, hi)
+            t, fstar = min_of_max_lines(v * n, v * T0, lo, hi)
             # The optimal set {t : v_i T_i(t) <= f*} is an interval; take its min-norm point.
-            tol = _lowdim.FEAS_TOL * (np.abs(fstar) + scale)
+            tol = lowdim.FEAS_TOL * (np.abs(fstar) + scale)
             cap = (fstar + tol)[:, None] / v
-            olo, ohi = _lowdim.interval(T0, n, lb, np.minimum(ub, cap), scale)
+            olo, ohi = lowdim.interval(T0, n, lb, np.minimum(ub, cap), scale)
             olo, ohi = np.maximum(olo, lo), np.minimum(ohi, hi)
             width_ok = ohi - olo > 10 * tol / np.abs(n).max(axis=1).clip(1e-300)
             t_norm = np.clip(-np.einsum("nm,nm->n", T0, n), olo, ohi)
@@ -248,16 +202,16 @@ class ClosedFormBackend(Backend):
         infeas = np.full(form.N, np.nan)
         if (~feasible).any():
             bad = ~feasible
-            infeas[bad] = _lowdim.infeasibility_1d(T0[bad], n[bad], lb[bad], ub[bad])
+            infeas[bad] = lowdim.infeasibility_1d(T0[bad], n[bad], lb[bad], ub[bad])
         return T, status, unique & feasible | ~feasible, infeas
 
     def _solve_2d(self, form: StandardForm, T0: NDArray, Z: NDArray, scale: NDArray
                   ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         if form.kind == "qp":
-            z, feasible = _lowdim.qp_2d(T0, Z, form.lb, form.ub, form.q, form.c, scale)
+            z, feasible = lowdim.qp_2d(T0, Z, form.lb, form.ub, form.q, form.c, scale)
             unique = np.ones(form.N, dtype=bool)
         else:
-            z, feasible, unique, _ = _lowdim.lp_2d(T0, Z, form.lb, form.ub, form.c, scale)
+            z, feasible, unique, _ = lowdim.lp_2d(T0, Z, form.lb, form.ub, form.c, scale)
             unique |= ~feasible
         T = T0 + np.einsum("nmi,ni->nm", Z, z)
         status = status_array(form.N)

@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from tension_opt.backends.dense import DenseBatch, dense_batch
 from tension_opt.backends.base import Backend, RawResult, pose_loop_result
+from tension_opt.backends.dense import DenseBatch, dense_batch
 from tension_opt.backends.settings import solver_options
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.problems import StandardForm

@@ -13,8 +13,8 @@ import numpy as np
 import scipy
 from scipy.optimize import linprog
 
-from tension_opt.backends.dense import dense_batch
 from tension_opt.backends.base import Backend, RawResult, pose_loop_result
+from tension_opt.backends.dense import dense_batch
 from tension_opt.backends.settings import solver_options
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.problems import StandardForm

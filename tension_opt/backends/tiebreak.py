@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from tension_opt.backends import _lowdim
+from tension_opt.backends import lowdim
 from tension_opt.errors import InvalidInputError
 from tension_opt.problems import StandardForm
 
@@ -140,12 +140,12 @@ def low_dim_face_solve(form: StandardForm, T: NDArray) -> NDArray | None:
         lb, ub = face.lb[sel], face.ub[sel]
         if dim == 1:
             n = Z[..., 0]
-            lo, hi = _lowdim.interval(T0, n, lb, ub, scale[sel])
-            lo, hi = _lowdim.widen(lo, hi, n, scale[sel])
+            lo, hi = lowdim.interval(T0, n, lb, ub, scale[sel])
+            lo, hi = lowdim.widen(lo, hi, n, scale[sel])
             t = np.clip(-np.einsum("nm,nm->n", T0, n) / np.einsum("nm,nm->n", n, n), lo, hi)
             out[sel] = T0 + t[:, None] * n
         else:
-            z, feasible = _lowdim.qp_2d(T0, Z, lb, ub, np.ones_like(T0), np.zeros_like(T0),
+            z, feasible = lowdim.qp_2d(T0, Z, lb, ub, np.ones_like(T0), np.zeros_like(T0),
                                         scale[sel])
             good = sel[feasible]
             out[good] = T0[feasible] + np.einsum("nmi,ni->nm", Z[feasible], z[feasible])

@@ -5,13 +5,17 @@ parameterisation of a redundant robot (``Z`` spans the null space of ``A``) or t
 optimal face of an LP. Bounds ``lb <= T <= ub`` become half-planes in ``z``; the
 optimum of a convex diagonal quadratic or of a linear cost is found by enumerating
 its few possible locations (free minimum, minimum on each bounding line, vertices)
-for all poses at once. There is no iteration and no tolerance beyond rounding.
+for all poses at once. There is no iteration and no tolerance beyond rounding. The
+pieces shared with the capacity margin (bound lines, the minimum of a maximum of
+lines) live in :mod:`tension_opt.nullspace`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
+
+from tension_opt.nullspace import bound_lines, min_of_max_lines
 
 # Relative tolerance on feasibility tests and on flat (tied) directions.
 FEAS_TOL = 1e-9
@@ -59,47 +63,6 @@ def widen(lo: NDArray, hi: NDArray, n: NDArray, scale: NDArray) -> tuple[NDArray
     return np.where(tight, mid, lo), np.where(tight, mid, hi)
 
 
-def min_of_max_lines(slopes: NDArray, intercepts: NDArray, lo: NDArray, hi: NDArray
-                     ) -> tuple[NDArray, NDArray]:
-    """Minimise ``f(t) = max_j (slopes_j t + intercepts_j)`` over ``t`` in ``[lo, hi]``.
-
-    ``f`` is convex; its free minimum is where the highest crossing of a rising and a
-    falling line lies (in one dimension two lines decide the minimum), and the minimum
-    over the interval is that point clipped to it.
-
-    Parameters
-    ----------
-    slopes, intercepts : ndarray, shape (N, J)
-        Lines with intercept ``-inf`` are ignored.
-    lo, hi : ndarray, shape (N,)
-        May be infinite; ``t`` is then infinite where ``f`` keeps falling.
-
-    Returns
-    -------
-    t, value : ndarray, shape (N,)
-    """
-    rising = (slopes > 0) & np.isfinite(intercepts)
-    falling = (slopes < 0) & np.isfinite(intercepts)
-    a_i, a_j = slopes[:, :, None], slopes[:, None, :]
-    b_i, b_j = intercepts[:, :, None], intercepts[:, None, :]
-    pair = rising[:, :, None] & falling[:, None, :]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t_cross = np.where(pair, (b_j - b_i) / (a_i - a_j), np.nan)
-        v_cross = np.where(pair, a_i * t_cross + b_i, -np.inf)
-    flat = v_cross.reshape(len(lo), -1)
-    best = np.argmax(flat, axis=1)
-    rows = np.arange(len(lo))
-    has_pair = pair.reshape(len(lo), -1).any(axis=1)
-    t_free = np.where(has_pair, t_cross.reshape(len(lo), -1)[rows, best],
-                      np.where(rising.any(axis=1), -np.inf,
-                               np.where(falling.any(axis=1), np.inf, 0.0)))
-    t = np.clip(t_free, lo, hi)
-    with np.errstate(invalid="ignore"):
-        value = np.where(np.isfinite(intercepts), slopes * t[:, None] + intercepts,
-                         -np.inf).max(axis=1)
-    return t, value
-
-
 def infeasibility_1d(T0: NDArray, n: NDArray, lb: NDArray, ub: NDArray) -> NDArray:
     """Smallest largest bound violation (N) over the line ``T0 + t n``, shape (N,)."""
     slopes = np.concatenate([-n, n], axis=1)
@@ -110,15 +73,6 @@ def infeasibility_1d(T0: NDArray, n: NDArray, lb: NDArray, ub: NDArray) -> NDArr
     inf = np.full(len(T0), np.inf)
     _, value = min_of_max_lines(slopes, intercepts, -inf, inf)
     return np.maximum(value, 0.0)
-
-
-def _lines_2d(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray
-              ) -> tuple[NDArray, NDArray, NDArray]:
-    """Bounding lines ``a . z <= beta`` of the polygon, normals (N, L, 2), beta (N, L), mask."""
-    normals = np.concatenate([-Z, Z], axis=1)  # -(T0 + Z z) <= -lb ; T0 + Z z <= ub
-    beta = np.concatenate([T0 - lb, ub - T0], axis=1)
-    finite = np.isfinite(beta)
-    return normals, np.where(finite, beta, 0.0), finite
 
 
 def _feasible_2d(points: NDArray, normals: NDArray, beta: NDArray, finite: NDArray,
@@ -167,7 +121,7 @@ def qp_2d(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
     g = np.einsum("nmi,nm->ni", Z, q * T0 + c)
     Hinv = np.linalg.inv(H)
     z_free = -np.einsum("nij,nj->ni", Hinv, g)
-    normals, beta, finite = _lines_2d(T0, Z, lb, ub)
+    normals, beta, finite = bound_lines(T0, Z, lb, ub)
     # Minimum on each line a.z = beta: z_free + Hinv a (beta - a.z_free) / (a^T Hinv a).
     Ha = np.einsum("nij,nlj->nli", Hinv, normals)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -201,7 +155,7 @@ def lp_2d(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray, c: NDArray, scale: 
     """
     N = len(T0)
     rows = np.arange(N)
-    normals, beta, finite = _lines_2d(T0, Z, lb, ub)
+    normals, beta, finite = bound_lines(T0, Z, lb, ub)
     vertices = _vertices_2d(normals, beta, finite)
     ok = _feasible_2d(vertices, normals, beta, finite, scale)
     gz = np.einsum("nmi,nm->ni", Z, c)  # cost gradient in z

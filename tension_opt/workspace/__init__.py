@@ -1,0 +1,67 @@
+"""Wrench-feasible workspace over grids or random samples, with the capacity margin.
+
+A pose is *wrench-feasible* when tensions within ``[t_min, t_max]`` hold the platform's
+weight plus every external wrench of a given set (each on its own). Beside the yes/no
+answer every pose gets its **capacity margin** (N)::
+
+    margin = max s  such that  A T = b,  t_min + s <= T <= t_max - s      (one wrench)
+
+positive inside the workspace, zero on its boundary, negative outside (see
+:mod:`tension_opt.margin` for its infinite values and how it is computed). With
+several wrenches the margin is the smallest over them. A pose is reported feasible
+when ``margin >= -FEAS_TOL * scale``, ``scale`` being the pose's typical tension.
+
+The package holds one job per module:
+
+- :mod:`~tension_opt.workspace.grid`: :class:`Grid`, :func:`workspace_grid`,
+  :func:`sample_poses`, :func:`cell_widths` (the poses to check);
+- :mod:`~tension_opt.workspace.result`: :class:`WorkspaceResult`;
+- :mod:`~tension_opt.workspace.compute`: :func:`wrench_feasible_workspace`, chunks of
+  poses over an executor (in-process, a process pool or Dask; the chunks, and so the
+  result, do not depend on the executor);
+- :mod:`~tension_opt.workspace.plots`: :func:`plot_slice`, :func:`plot_workspace_3d`.
+
+The margin itself is :func:`tension_opt.margin.capacity_margin`, also importable from
+here.
+"""
+
+from tension_opt.margin import LP_CAP, capacity_margin, margin_lp, margin_solve
+from tension_opt.nullspace import CONSISTENCY_TOL, RANK_TOL
+from tension_opt.workspace.compute import (
+    CHUNK_SIZE,
+    FEAS_TOL,
+    on_drawing_point,
+    prepare,
+    wrench_feasible_workspace,
+)
+from tension_opt.workspace.grid import (
+    MAX_GRID_POINTS,
+    Grid,
+    cell_widths,
+    sample_poses,
+    workspace_grid,
+)
+from tension_opt.workspace.plots import plot_slice, plot_workspace_3d
+from tension_opt.workspace.result import WorkspaceResult
+
+__all__ = [
+    "CHUNK_SIZE",
+    "CONSISTENCY_TOL",
+    "FEAS_TOL",
+    "LP_CAP",
+    "MAX_GRID_POINTS",
+    "RANK_TOL",
+    "Grid",
+    "WorkspaceResult",
+    "capacity_margin",
+    "cell_widths",
+    "margin_lp",
+    "margin_solve",
+    "on_drawing_point",
+    "plot_slice",
+    "plot_workspace_3d",
+    "prepare",
+    "sample_poses",
+    "workspace_grid",
+    "wrench_feasible_workspace",
+]

@@ -1,0 +1,207 @@
+"""The result of a workspace check: :class:`WorkspaceResult`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+
+from tension_opt.errors import InvalidInputError
+from tension_opt.kinds import MotionPattern, get_kind
+from tension_opt.robot import CableRobot
+from tension_opt.workspace.grid import cell_widths
+
+__all__ = ["WorkspaceResult"]
+
+
+@dataclass(eq=False)
+class WorkspaceResult:
+    """Wrench feasibility, capacity margin and minimum-sum tensions of a batch of poses.
+
+    Attributes
+    ----------
+    poses : ndarray, shape (N, n)
+        The poses checked (m, rad).
+    feasible : ndarray of bool, shape (N,)
+        Every wrench of the set can be held with tensions within the bounds.
+    margin : ndarray, shape (N,)
+        Capacity margin (N): the smallest over the wrenches of the largest ``s`` with
+        tensions in ``[t_min + s, t_max - s]`` in equilibrium; see :mod:`tension_opt.margin`.
+    tensions : ndarray, shape (N, m)
+        Minimum-sum tensions (N) under the critical wrench (the one that sets the
+        margin); NaN where infeasible.
+    status : ndarray of Status values, shape (N,)
+        ``OPTIMAL`` where feasible and the tensions were found, ``INFEASIBLE``, or the
+        status of a failed solve.
+    margins : ndarray, shape (N, K)
+        Capacity margin under each wrench (N).
+    critical_wrench : ndarray of int, shape (N,)
+        Index of the wrench with the smallest margin.
+    wrenches : ndarray, shape (K, n)
+        External wrenches besides gravity (N, N m); a zero row for the weight alone.
+    grid_shape : tuple of int, optional
+        Shape of the grid the poses came from (C order), None for samples.
+    axes : tuple of ndarray, optional
+        Grid points along each pose coordinate.
+    bounds : tuple of ndarray, optional
+        ``(lower, upper)`` of the sampled box or of the grid's box, shape (n,) each
+        (m, rad), for :meth:`volume`.
+    robot : CableRobot, optional
+        The robot (anchors are drawn by the plots).
+    backend : str
+        How the margins were computed: ``"closed_form"``, a backend name, or both.
+    """
+
+    poses: NDArray
+    feasible: NDArray
+    margin: NDArray
+    tensions: NDArray
+    status: NDArray
+    margins: NDArray
+    critical_wrench: NDArray
+    wrenches: NDArray
+    grid_shape: tuple[int, ...] | None = None
+    axes: tuple[NDArray, ...] | None = None
+    bounds: tuple[NDArray, NDArray] | None = None
+    robot: CableRobot | None = None
+    backend: str = ""
+    extras: dict[str, Any] = field(default_factory=dict)
+
+    #: Quantities of :meth:`quantity` with their plot labels (units).
+    QUANTITIES: ClassVar[dict[str, str]] = {
+        "margin": "capacity margin (N)",
+        "feasible": "wrench-feasible",
+        "tension_sum": "sum of min-sum tensions (N)",
+        "max_tension": "largest min-sum tension (N)",
+    }
+
+    @property
+    def N(self) -> int:
+        """Number of poses."""
+        return int(self.poses.shape[0])
+
+    @property
+    def pattern(self) -> MotionPattern:
+        """The robot's motion pattern (a point mass in space without a robot)."""
+        return self.robot.pattern if self.robot is not None else get_kind("point3")
+
+    @property
+    def coordinate_names(self) -> tuple[str, ...]:
+        """Names of the pose coordinates (``x, y, z`` ...; ``q0, q1`` ... without a robot)."""
+        if self.robot is not None:
+            return self.robot.pattern.coordinates
+        return tuple(f"q{i}" for i in range(self.poses.shape[1]))
+
+    def fraction(self) -> float:
+        """Fraction of the poses that are feasible."""
+        return float(np.mean(self.feasible)) if self.N else 0.0
+
+    def quantity(self, name: str) -> NDArray:
+        """A per-pose quantity by name, shape (N,).
+
+        ``"margin"`` (N), ``"feasible"`` (0/1), ``"tension_sum"`` (N), ``"max_tension"``
+        (N), ``"T1"`` .. ``"Tm"`` (N); subclasses add their own (``"sag_correction"``).
+        """
+        if name == "margin":
+            return self.margin
+        if name == "feasible":
+            return self.feasible.astype(float)
+        if name == "tension_sum":
+            return self.tensions.sum(axis=1)
+        if name == "max_tension":
+            return self.tensions.max(axis=1)
+        if name.startswith("T") and name[1:].isdigit():
+            i = int(name[1:]) - 1
+            if 0 <= i < self.tensions.shape[1]:
+                return self.tensions[:, i]
+        value = getattr(self, name, None)
+        if isinstance(value, np.ndarray) and value.shape == (self.N,):
+            return value.astype(float)
+        raise InvalidInputError(f"unknown quantity {name!r}; choose one of "
+                                f"{[*self.QUANTITIES, 'T1']}")
+
+    def label(self, name: str) -> str:
+        """Plot label of a quantity, with its unit."""
+        if name.startswith("T") and name[1:].isdigit():
+            return f"tension {name} (N)"
+        return self.QUANTITIES.get(name, name)
+
+    def volume(self) -> float:
+        """Measure of the feasible positions: m^3 (m^2 for planar robots).
+
+        On a grid: the sum of the cells ``dx dy dz`` of the feasible points, each point
+        standing for its cell in the grid's box (``bounds``; see :func:`cell_widths`:
+        equal cells on a ``spacing`` grid, half cells at the ends of a ``counts``
+        grid), so a feasible box gives its own volume either way. The grid must keep
+        the orientation fixed and its box must extend along every position coordinate
+        (one point across a nonzero width is fine). For samples: the feasible fraction
+        times the volume of the sampled box (``bounds``; else the bounding box of the
+        poses) over the position coordinates.
+        """
+        pos = self.pattern.positions
+        if self.grid_shape is not None and self.axes is not None:
+            cells = self._cell_volumes(self.grid_shape, self.axes, pos)
+            return float(cells[np.asarray(self.feasible, dtype=bool)].sum())
+        if self.bounds is not None:
+            lo, hi = self.bounds
+        else:
+            lo, hi = self.poses.min(axis=0), self.poses.max(axis=0)
+        box = float(np.prod([hi[i] - lo[i] for i in pos]))
+        return self.fraction() * box
+
+    def _cell_volumes(self, grid_shape: tuple[int, ...], axes: tuple[NDArray, ...],
+                      pos: tuple[int, ...]) -> NDArray:
+        """Volume (m^3, m^2) of each grid point's cell over the position coordinates
+        ``pos``, shape (N,)."""
+        others = [i for i in range(len(grid_shape)) if i not in pos]
+        if any(grid_shape[i] > 1 for i in others):
+            raise InvalidInputError("volume() needs a grid of fixed orientation; use "
+                                    "fraction() for a grid over angles")
+        cells = np.ones(grid_shape)
+        for i in pos:
+            if self.bounds is not None:
+                w = cell_widths(axes[i], self.bounds[0][i], self.bounds[1][i])
+            else:
+                w = cell_widths(axes[i])
+            if not (w > 0).all():
+                raise InvalidInputError(
+                    f"volume() needs a grid whose box extends along every position "
+                    f"coordinate; {self.coordinate_names[i]} is fixed")
+            shape = [1] * len(grid_shape)
+            shape[i] = len(w)
+            cells = cells * w.reshape(shape)
+        return cells.ravel()
+
+    def reshape(self, values: ArrayLike) -> NDArray:
+        """Per-pose values (N, ...) reshaped to the grid, shape ``grid_shape + (...)``."""
+        if self.grid_shape is None:
+            raise InvalidInputError("these poses are not a grid")
+        arr = np.asarray(values)
+        return arr.reshape(*self.grid_shape, *arr.shape[1:])
+
+    def to_frame(self) -> pd.DataFrame:
+        """Tidy table, one row per pose: coordinates, feasible, margin, status, tensions."""
+        frame = pd.DataFrame(self.poses, columns=list(self.coordinate_names))
+        frame["feasible"] = self.feasible
+        frame["margin"] = self.margin
+        frame["status"] = [str(s) for s in self.status]
+        for i in range(self.tensions.shape[1]):
+            frame[f"T{i + 1}"] = self.tensions[:, i]
+        if self.margins.shape[1] > 1:
+            for k in range(self.margins.shape[1]):
+                frame[f"margin_w{k}"] = self.margins[:, k]
+            frame["critical_wrench"] = self.critical_wrench
+        self._extra_columns(frame)
+        return frame
+
+    def _extra_columns(self, frame: pd.DataFrame) -> None:
+        """Hook for subclasses: add their own columns."""
+
+    def __repr__(self) -> str:
+        name = self.robot.name if self.robot is not None else "robot"
+        return (f"{type(self).__name__}({name!r}, N={self.N}, feasible={self.fraction():.3f}, "
+                f"grid={self.grid_shape}, K={self.wrenches.shape[0]}, backend={self.backend!r})")
+
