@@ -39,12 +39,17 @@ points.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
+    "FullEvaluation",
+    "SpansEvaluation",
+    "axial_compliance",
+    "evaluate",
     "flexibility",
     "length_derivative",
     "profile",
@@ -56,12 +61,14 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-# Results of _evaluate: (x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B), with the
-# flexibility entries None when jacobian is false.
-_Full = tuple[
+#: Result of :func:`evaluate`: ``(x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B)``.
+FullEvaluation = tuple[
     FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray
 ]
-_SpansOnly = tuple[FloatArray, FloatArray, None, None, None, FloatArray, FloatArray, FloatArray]
+#: Result of :func:`evaluate` with ``jacobian=False`` (no flexibility entries).
+SpansEvaluation = tuple[
+    FloatArray, FloatArray, None, None, None, FloatArray, FloatArray, FloatArray
+]
 
 # Taylor coefficients (exact fractions) of asinh(u)/u - 1 = sum c_n u^(2n), n >= 1.
 _ASINHC_M1 = (
@@ -121,8 +128,19 @@ def _as_float(*args: ArrayLike) -> list[FloatArray]:
     return [np.asarray(a, dtype=np.float64) for a in args]
 
 
-def _inv(EA: FloatArray) -> FloatArray:
-    """1/EA, exactly 0 for an inextensible cable (EA = inf)."""
+def axial_compliance(EA: FloatArray) -> FloatArray:
+    """Axial compliance ``1/EA`` (1/N), exactly ``0`` for an inextensible cable.
+
+    Parameters
+    ----------
+    EA : ndarray
+        Axial stiffness (N), ``> 0``; ``inf`` for an inextensible cable.
+
+    Returns
+    -------
+    ndarray
+        ``1/EA`` (1/N), the shape of ``EA``.
+    """
     with np.errstate(divide="ignore"):
         return 1.0 / EA
 
@@ -134,59 +152,194 @@ def _shaped(shape: tuple[int, ...], *arrays: FloatArray) -> tuple[FloatArray, ..
     return tuple(a.reshape(shape) for a in arrays)
 
 
+@dataclass(slots=True)
+class _Branches:
+    """Flat working arrays of one :func:`evaluate` call, shape ``(K,)``.
+
+    The inputs, the end quantities, the same-sign terms ``rho`` and
+    ``q = asinh(u)/u`` (``u = w L0 rho``), the spans without stretch
+    ``x_c, z_c``, and the index sets of the branches scattered in: ``small``
+    (series for ``|u| < 0.1``, with ``qm1_small = q - 1`` there), ``opp``
+    (``V_A < 0 < V_B``, with its gathered ``(H, V_B, V_A, w)``) and ``bad``
+    (degenerate limits).
+    """
+
+    H: FloatArray
+    V_B: FloatArray
+    L0: FloatArray
+    w: FloatArray
+    inv_EA: FloatArray
+    V_A: FloatArray
+    T_A: FloatArray
+    T_B: FloatArray
+    S: FloatArray
+    TS: FloatArray
+    rho: FloatArray
+    q: FloatArray
+    HL: FloatArray
+    x_c: FloatArray
+    z_c: FloatArray
+    small: NDArray[np.intp]
+    qm1_small: FloatArray | None
+    opp: NDArray[np.intp]
+    opp_args: tuple[FloatArray, FloatArray, FloatArray, FloatArray] | None = None
+    bad: NDArray[np.intp] | None = None
+
+
+def _same_sign_branch(
+    H: FloatArray, V_B: FloatArray, L0: FloatArray, w: FloatArray, inv_EA: FloatArray
+) -> _Branches:
+    """Spans of every element as if ``V_A`` and ``V_B`` had the same sign.
+
+    There ``asinh(a) - asinh(b) = asinh(w L0 rho)``; the series replaces
+    ``asinh(u)/u`` only where ``|u| < 0.1`` (including ``u = 0``).
+    """
+    wL = w * L0
+    V_A = V_B - wL
+    T_A = np.hypot(H, V_A)
+    T_B = np.hypot(H, V_B)
+    S = V_A + V_B
+    TS = T_A + T_B
+    rho = S / (V_B * T_A + V_A * T_B)
+    u = wL * rho
+    q = np.arcsinh(u) / u  # asinh(u)/u
+    small = np.flatnonzero(np.abs(u) < _SERIES_CUT)  # includes u = 0 and NaN-free
+    qm1_s = None
+    if small.size:
+        us = u[small]
+        u2 = us * us
+        qm1_s = u2 * _poly_u2(_ASINHC_M1, u2)
+        q[small] = 1.0 + qm1_s
+    HL = H * L0
+    x_c = HL * rho * q
+    z_c = L0 * S / TS
+    opp = np.flatnonzero((V_A < 0.0) & (V_B > 0.0))
+    return _Branches(
+        H, V_B, L0, w, inv_EA, V_A, T_A, T_B, S, TS, rho, q, HL, x_c, z_c, small, qm1_s, opp
+    )
+
+
+def _opposite_sign_branch(b: _Branches) -> None:
+    """Scatter in ``x_c`` where ``V_A < 0 < V_B`` (needs ``w > 0``): the asinh terms add."""
+    opp = b.opp
+    if opp.size:
+        h, vb, va, wo = b.H[opp], b.V_B[opp], b.V_A[opp], b.w[opp]
+        b.x_c[opp] = h / wo * (np.arcsinh(vb / h) - np.arcsinh(va / h))
+        b.opp_args = (h, vb, va, wo)
+
+
+def _degenerate_limits(b: _Branches) -> None:
+    """Scatter in ``rho``, ``q`` and ``x_c`` where the general formulas fail.
+
+    ``|S| << H`` (nearly horizontal weightless bar, where ``S`` and the
+    denominator of ``rho`` may underflow: ``rho = 1/H`` in the limit),
+    ``H = 0`` (vertical cable) or ``V/H`` overflowing (limit ``x_c = 0``).
+    """
+    H, S, x_c = b.H, b.S, b.x_c
+    bad = np.flatnonzero(~np.isfinite(x_c) | (H == 0.0) | (np.abs(S) < 1e-150 * H))
+    b.bad = bad
+    if bad.size:
+        V_A, V_B, T_A, T_B, rho = b.V_A, b.V_B, b.T_A, b.T_B, b.rho
+        Sb, Hb = S[bad], H[bad]
+        same = (V_A[bad] >= 0.0) | (V_B[bad] <= 0.0)
+        sb = bad[same & (np.abs(Sb) < 1e-150 * Hb) & (Hb > 0.0)]
+        m = np.maximum(np.abs(V_A[sb]), np.abs(V_B[sb]))
+        a = np.where(m > 0, V_A[sb] / m, 0.0)
+        c = np.where(m > 0, V_B[sb] / m, 0.0)
+        rs = (a + c) / (c * T_A[sb] + a * T_B[sb])
+        rho[sb] = np.where(np.isfinite(rs), rs, 1.0 / H[sb])
+        b.q[sb] = 1.0
+        x_c[sb] = b.HL[sb] * rho[sb]
+        hz = bad[(H[bad] == 0.0) | ~np.isfinite(x_c[bad]) & np.isfinite(H[bad])]
+        x_c[hz] = 0.0
+
+
+def _flexibility_terms(b: _Branches) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``(F_xx, F_xz, F_zz)`` (m/N), flat, from the branches of :func:`evaluate`."""
+    H, V_A, V_B, T_A, T_B, TS = b.H, b.V_A, b.V_B, b.T_A, b.T_B, b.TS
+    TT = T_A * T_B
+    H2 = H * H
+    base = b.L0 * b.inv_EA
+    F_xz = -b.HL * b.S / (TT * TS)
+    # T_A T_B - H^2 written without cancellation.
+    VA2, VB2 = V_A * V_A, V_B * V_B
+    prod_m_h2 = (H2 * (VA2 + VB2) + VA2 * VB2) / (TT + H2)
+    Lrho = b.L0 * b.rho
+    qm1 = b.q - 1.0
+    if b.small.size:
+        qm1[b.small] = b.qm1_small
+    F_xx = base + Lrho * (qm1 + prod_m_h2 / TT)
+    F_zz = base + H2 * Lrho / TT
+    if b.opp_args is not None:
+        opp = b.opp
+        h, vb, va, wo = b.opp_args
+        iw = 1.0 / wo
+        F_xx[opp] = base[opp] + (_g(vb / h) + _g(-va / h)) * iw
+        F_zz[opp] = base[opp] + (vb / T_B[opp] - va / T_A[opp]) * iw
+    if b.bad is not None and b.bad.size:
+        hz = b.bad[H[b.bad] == 0.0]
+        F_xz[hz] = 0.0
+    return F_xx, F_xz, F_zz
+
+
 @overload
-def _evaluate(
+def evaluate(
     H: ArrayLike,
     V_B: ArrayLike,
     L0: ArrayLike,
     w: ArrayLike,
     inv_EA: ArrayLike,
     jacobian: Literal[True] = ...,
-) -> _Full: ...
+) -> FullEvaluation: ...
 @overload
-def _evaluate(
+def evaluate(
     H: ArrayLike,
     V_B: ArrayLike,
     L0: ArrayLike,
     w: ArrayLike,
     inv_EA: ArrayLike,
     jacobian: Literal[False],
-) -> _SpansOnly: ...
+) -> SpansEvaluation: ...
 @overload
-def _evaluate(
+def evaluate(
     H: ArrayLike,
     V_B: ArrayLike,
     L0: ArrayLike,
     w: ArrayLike,
     inv_EA: ArrayLike,
     jacobian: bool = ...,
-) -> _Full | _SpansOnly: ...
-def _evaluate(
+) -> FullEvaluation | SpansEvaluation: ...
+def evaluate(
     H: ArrayLike,
     V_B: ArrayLike,
     L0: ArrayLike,
     w: ArrayLike,
     inv_EA: ArrayLike,
     jacobian: bool = True,
-) -> _Full | _SpansOnly:
-    """Spans and flexibility of broadcastable arrays (the solvers' hot path).
+) -> FullEvaluation | SpansEvaluation:
+    """Spans, flexibility and end tensions in one pass (the solvers' hot path).
+
+    Unchecked: the solvers of :mod:`catenary.solve` call it once per Newton
+    iteration on all unconverged cables.
 
     Parameters
     ----------
     H, V_B, L0, w : array_like
-        As in :func:`spans` (N, N, m, N/m).
+        As in :func:`spans` (N, N, m, N/m); broadcast to a shape ``S``.
     inv_EA : array_like
-        ``1/EA`` (1/N), ``0`` for an inextensible cable.
+        Axial compliance ``1/EA`` (1/N), ``0`` for an inextensible cable
+        (see :func:`axial_compliance`).
     jacobian : bool
         Whether to compute the flexibility terms.
 
     Returns
     -------
     tuple
-        ``(x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B)``, arrays of the broadcast
-        shape: spans (m), flexibility entries (m/N; ``None`` when
-        ``jacobian`` is false), the inextensible part ``x_c`` of the horizontal
-        span (m) and the end tensions (N).
+        ``(x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B)``, arrays of shape ``S``
+        (numpy scalars for ``S == ()``): spans (m), flexibility entries
+        ``dx/dH, dx/dV_B = dz/dH, dz/dV_B`` (m/N; ``None`` when ``jacobian``
+        is false), the inextensible part ``x_c`` of the horizontal span (m)
+        and the end tensions (N).
 
     Notes
     -----
@@ -198,76 +351,20 @@ def _evaluate(
     """
     arrays = np.broadcast_arrays(H, V_B, L0, w, inv_EA)
     shape = arrays[0].shape
-    H, V_B, L0, w, inv_EA = (np.asarray(a, dtype=np.float64).reshape(-1) for a in arrays)
+    flat = (np.asarray(a, dtype=np.float64).reshape(-1) for a in arrays)
     with np.errstate(all="ignore"):
-        wL = w * L0
-        V_A = V_B - wL
-        T_A = np.hypot(H, V_A)
-        T_B = np.hypot(H, V_B)
-        S = V_A + V_B
-        TS = T_A + T_B
-        # Same-sign branch on every element: asinh(a) - asinh(b) = asinh(wL rho).
-        rho = S / (V_B * T_A + V_A * T_B)
-        u = wL * rho
-        q = np.arcsinh(u) / u  # asinh(u)/u
-        small = np.flatnonzero(np.abs(u) < _SERIES_CUT)  # includes u = 0 and NaN-free
-        if small.size:
-            us = u[small]
-            u2 = us * us
-            qm1_s = u2 * _poly_u2(_ASINHC_M1, u2)
-            q[small] = 1.0 + qm1_s
-        HL = H * L0
-        x_c = HL * rho * q
-        z_c = L0 * S / TS
-        opp = np.flatnonzero((V_A < 0.0) & (V_B > 0.0))
-        if opp.size:
-            # Opposite signs (V_A < 0 < V_B, needs w > 0): the asinh terms add.
-            h, vb, va, wo = H[opp], V_B[opp], V_A[opp], w[opp]
-            x_c[opp] = h / wo * (np.arcsinh(vb / h) - np.arcsinh(va / h))
-        # Degenerate elements: |S| << H (nearly horizontal weightless bar,
-        # where S and the denominator of rho may underflow: rho = 1/H in the
-        # limit), H = 0 (vertical cable) or V/H overflowing (limit x_c = 0).
-        bad = np.flatnonzero(~np.isfinite(x_c) | (H == 0.0) | (np.abs(S) < 1e-150 * H))
-        if bad.size:
-            Sb, Hb = S[bad], H[bad]
-            same = (V_A[bad] >= 0.0) | (V_B[bad] <= 0.0)
-            sb = bad[same & (np.abs(Sb) < 1e-150 * Hb) & (Hb > 0.0)]
-            m = np.maximum(np.abs(V_A[sb]), np.abs(V_B[sb]))
-            a = np.where(m > 0, V_A[sb] / m, 0.0)
-            b = np.where(m > 0, V_B[sb] / m, 0.0)
-            rs = (a + b) / (b * T_A[sb] + a * T_B[sb])
-            rho[sb] = np.where(np.isfinite(rs), rs, 1.0 / H[sb])
-            q[sb] = 1.0
-            x_c[sb] = HL[sb] * rho[sb]
-            hz = bad[(H[bad] == 0.0) | ~np.isfinite(x_c[bad]) & np.isfinite(H[bad])]
-            x_c[hz] = 0.0
-        x = HL * inv_EA + x_c
-        z = 0.5 * L0 * S * inv_EA + z_c
+        b = _same_sign_branch(*flat)
+        _opposite_sign_branch(b)
+        _degenerate_limits(b)
+        x = b.HL * b.inv_EA + b.x_c
+        z = 0.5 * b.L0 * b.S * b.inv_EA + b.z_c
         if not jacobian:
-            x, z, x_c, T_A, T_B = _shaped(shape, x, z, x_c, T_A, T_B)
+            x, z, x_c, T_A, T_B = _shaped(shape, x, z, b.x_c, b.T_A, b.T_B)
             return x, z, None, None, None, x_c, T_A, T_B
-
-        TT = T_A * T_B
-        H2 = H * H
-        base = L0 * inv_EA
-        F_xz = -HL * S / (TT * TS)
-        # T_A T_B - H^2 written without cancellation.
-        VA2, VB2 = V_A * V_A, V_B * V_B
-        prod_m_h2 = (H2 * (VA2 + VB2) + VA2 * VB2) / (TT + H2)
-        Lrho = L0 * rho
-        qm1 = q - 1.0
-        if small.size:
-            qm1[small] = qm1_s
-        F_xx = base + Lrho * (qm1 + prod_m_h2 / TT)
-        F_zz = base + H2 * Lrho / TT
-        if opp.size:
-            iw = 1.0 / wo
-            F_xx[opp] = base[opp] + (_g(vb / h) + _g(-va / h)) * iw
-            F_zz[opp] = base[opp] + (vb / T_B[opp] - va / T_A[opp]) * iw
-        if bad.size:
-            hz = bad[H[bad] == 0.0]
-            F_xz[hz] = 0.0
-    x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B = _shaped(shape, x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B)
+        F_xx, F_xz, F_zz = _flexibility_terms(b)
+    x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B = _shaped(
+        shape, x, z, F_xx, F_xz, F_zz, b.x_c, b.T_A, b.T_B
+    )
     return x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B
 
 
@@ -299,7 +396,7 @@ def spans(
         Horizontal span and height of B over A (m), broadcast shape.
     """
     H, V_B, L0, w, EA = _as_float(H, V_B, L0, w, EA)
-    x, z, *_ = _evaluate(H, V_B, L0, w, _inv(EA), jacobian=False)
+    x, z, *_ = evaluate(H, V_B, L0, w, axial_compliance(EA), jacobian=False)
     return x, z
 
 
@@ -326,7 +423,7 @@ def flexibility(
         ``[[dx/dH, dx/dV_B], [dz/dH, dz/dV_B]]``.
     """
     H, V_B, L0, w, EA = _as_float(H, V_B, L0, w, EA)
-    _, _, fxx, fxz, fzz, *_ = _evaluate(H, V_B, L0, w, _inv(EA))
+    _, _, fxx, fxz, fzz, *_ = evaluate(H, V_B, L0, w, axial_compliance(EA))
     fxx, fxz, fzz = np.broadcast_arrays(fxx, fxz, fzz)
     return np.stack([np.stack([fxx, fxz], -1), np.stack([fxz, fzz], -1)], -2)
 
@@ -385,7 +482,7 @@ def length_derivative(
     """
     H, V_B, L0, w, EA = _as_float(H, V_B, L0, w, EA)
     V_A = V_B - w * L0
-    k = 1.0 / np.hypot(H, V_A) + _inv(EA)
+    k = 1.0 / np.hypot(H, V_A) + axial_compliance(EA)
     return H * k, V_A * k
 
 
@@ -418,14 +515,14 @@ def stretched_length(
     cancellation-free closed form (exact for ``w = 0``).
     """
     H, V_B, L0, w, EA = _as_float(H, V_B, L0, w, EA)
-    inv_EA = _inv(EA)
+    inv_EA = axial_compliance(EA)
     with np.errstate(all="ignore"):
         V_A = V_B - w * L0
         T_A = np.hypot(H, V_A)
         T_B = np.hypot(H, V_B)
         S = V_A + V_B
         TS = T_A + T_B
-        x_c = _evaluate(H, V_B, L0, w, inv_EA, jacobian=False)[5]
+        x_c = evaluate(H, V_B, L0, w, inv_EA, jacobian=False)[5]
         integral = 0.25 * L0 * (np.where(TS > 0, S * S / TS, 0.0) + TS) + 0.5 * H * x_c
         return L0 + np.where(inv_EA == 0.0, 0.0, integral * inv_EA)
 
@@ -462,7 +559,7 @@ def profile(
     V_s = V_B - w * L0 + w * s
     with np.errstate(all="ignore"):
         s_pos = np.where(s > 0, s, 1.0)
-        x, z, *_ = _evaluate(H, V_s, s_pos, w, _inv(EA), jacobian=False)
+        x, z, *_ = evaluate(H, V_s, s_pos, w, axial_compliance(EA), jacobian=False)
     x = np.where(s > 0, x, 0.0)
     z = np.where(s > 0, z, 0.0)
     s, x, z = np.broadcast_arrays(s, x, z)

@@ -1,0 +1,243 @@
+"""Parts shared by the forward and inverse catenary solvers.
+
+Per-cable status strings, the result types, the checks and preparation of
+the arguments, and a vectorised safeguarded Newton-bisection on brackets.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import InvalidCableError
+
+__all__ = [
+    "CONVERGED",
+    "EPS",
+    "INDETERMINATE",
+    "INFEASIBLE",
+    "NOT_CONVERGED",
+    "RES_TOL",
+    "SLACK",
+    "STATUS_DTYPE",
+    "T_TOL",
+    "FloatArray",
+    "ForcesResult",
+    "LengthResult",
+    "bracketed_newton",
+    "prepare",
+    "status_array",
+]
+
+FloatArray = NDArray[np.float64]
+
+# The status strings are values of ``tension_opt.solution.Status``; they are
+# spelled out here so that the single-cable solvers need no robot package.
+CONVERGED = "converged"
+SLACK = "slack"
+INFEASIBLE = "infeasible"
+INDETERMINATE = "indeterminate"
+NOT_CONVERGED = "not_converged"
+#: Numpy unicode dtype of the status arrays (fits the longest status).
+STATUS_DTYPE = "<U13"
+EPS = np.finfo(np.float64).eps
+#: Residual (relative to the lengths or the tension) above which a small Newton
+#: step is not trusted as convergence.
+RES_TOL = 1e-8
+#: Relative error of the prescribed tension above which a root is rejected.
+T_TOL = 1e-9
+
+
+def status_array(n: int, fill: str) -> NDArray[np.str_]:
+    """Status array of ``n`` cables, all ``fill`` (numpy unicode, shape ``(n,)``)."""
+    return np.full(n, fill, dtype=STATUS_DTYPE)
+
+
+@dataclass(frozen=True)
+class ForcesResult:
+    """End forces of cables of given unstretched length.
+
+    All arrays have the broadcast shape of the inputs. Forces in N.
+
+    Attributes
+    ----------
+    H : ndarray
+        Horizontal tension.
+    V_A, V_B : ndarray
+        Vertical tension components at the lower end A and upper end B,
+        positive upward along the cable (``V_A = V_B - w L0``).
+    iterations : ndarray of int
+        Newton iterations per cable (fallback iterations are added).
+    converged : ndarray of bool
+        True where a solution was found (status ``"converged"`` or ``"slack"``).
+    status : ndarray of str
+        See :mod:`catenary.solve`.
+    """
+
+    H: FloatArray
+    V_A: FloatArray
+    V_B: FloatArray
+    iterations: NDArray[np.int64]
+    converged: NDArray[np.bool_]
+    status: NDArray[np.str_]
+
+    @property
+    def T_A(self) -> FloatArray:
+        """Tension magnitude at end A (N)."""
+        return np.hypot(self.H, self.V_A)
+
+    @property
+    def T_B(self) -> FloatArray:
+        """Tension magnitude at end B (N)."""
+        return np.hypot(self.H, self.V_B)
+
+
+@dataclass(frozen=True)
+class LengthResult(ForcesResult):
+    """Unstretched lengths (m) for a prescribed tension, plus the end forces."""
+
+    L0: FloatArray = None  # type: ignore[assignment]
+
+
+# ----------------------------------------------------------------------------
+# argument checks
+
+
+def _check(name: str, a: FloatArray, *, positive: bool = False, allow_inf: bool = False) -> None:
+    """Raise unless ``a`` is ``>= 0`` (``> 0`` if ``positive``), finite unless ``allow_inf``."""
+    bad = np.isnan(a)
+    if not allow_inf:
+        bad |= np.isinf(a)
+    bad |= (a <= 0) if positive else (a < 0)
+    if np.any(bad):
+        value = a[bad].flat[0] if a.ndim else float(a)
+        rule = "> 0" if positive else ">= 0"
+        raise InvalidCableError(
+            f"{name} must be {rule}{' (inf allowed)' if allow_inf else ' and finite'}; "
+            f"got {name}={value!r}"
+        )
+
+
+def prepare(
+    x: ArrayLike, z: ArrayLike, third: ArrayLike, w: ArrayLike, EA: ArrayLike, third_name: str
+) -> tuple[tuple[int, ...], list[FloatArray]]:
+    """Check the arguments of a solver and flatten them to one common shape.
+
+    Parameters
+    ----------
+    x, z, third, w, EA : array_like
+        Horizontal span (m), height of B over A (m), the solver's third
+        argument (``L0`` in m or a tension in N), weight per length (N/m)
+        and axial stiffness (N).
+    third_name : str
+        Name of the third argument in messages; ``"L0"`` must be ``> 0``,
+        any other ``>= 0``.
+
+    Returns
+    -------
+    shape : tuple of int
+        Broadcast shape ``S`` of the arguments.
+    flat : list of ndarray
+        ``[x, z, third, w, EA]`` as contiguous float arrays of shape ``(prod(S),)``.
+
+    Raises
+    ------
+    InvalidCableError
+        NaN, out-of-domain values or shapes that do not broadcast.
+    """
+    arrays = [np.asarray(a, dtype=np.float64) for a in (x, z, third, w, EA)]
+    names = ("x", "z", third_name, "w", "EA")
+    for n, a in zip(names, arrays, strict=True):
+        if np.any(np.isnan(a)):
+            raise InvalidCableError(f"{n} contains NaN")
+    _check("x", arrays[0])
+    zbad = ~np.isfinite(arrays[1])
+    if np.any(zbad):
+        raise InvalidCableError(f"z must be finite; got z={arrays[1][zbad].flat[0]!r}")
+    _check(third_name, arrays[2], positive=third_name == "L0")
+    _check("w", arrays[3])
+    _check("EA", arrays[4], positive=True, allow_inf=True)
+    try:
+        shape = np.broadcast_shapes(*(a.shape for a in arrays))
+    except ValueError as exc:
+        raise InvalidCableError(f"arguments do not broadcast: {exc}") from None
+    flat = [np.ascontiguousarray(np.broadcast_to(a, shape)).ravel() for a in arrays]
+    return shape, flat
+
+
+# ----------------------------------------------------------------------------
+# vectorised safeguarded Newton / bisection on a bracket
+
+
+def bracketed_newton(
+    f: Callable[[FloatArray, NDArray[np.intp]], tuple[FloatArray, FloatArray]],
+    lo: FloatArray,
+    hi: FloatArray,
+    x0: FloatArray,
+    *,
+    xtol: float = 4 * EPS,
+    max_iter: int = 200,
+) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.int64]]:
+    """Roots of increasing functions ``f`` (one per element) on ``[lo, hi]``.
+
+    ``f(t, idx)`` returns value and derivative at ``t`` for the elements
+    ``idx``; ``f(lo) <= 0 <= f(hi)`` must hold. Newton steps are taken when
+    they stay strictly inside the bracket, bisection steps otherwise, so the
+    iteration always converges.
+
+    Parameters
+    ----------
+    f : callable
+        ``f(t (k,), idx (k,) int) -> (value (k,), derivative (k,))``.
+    lo, hi, x0 : ndarray, shape ``(n,)``
+        Brackets and starting points (same unit as the root).
+    xtol : float
+        Relative tolerance on the bracket width or the step.
+    max_iter : int
+        Iteration limit.
+
+    Returns
+    -------
+    t : ndarray, shape ``(n,)``
+        The roots.
+    done : ndarray of bool, shape ``(n,)``
+        Whether each element met the tolerance.
+    iterations : ndarray of int, shape ``(n,)``
+        Evaluations of ``f`` per element.
+    """
+    lo, hi = lo.copy(), hi.copy()
+    t = np.clip(x0, lo, hi)
+    t = np.where(np.isfinite(t), t, 0.5 * (lo + hi))
+    done = np.zeros(t.shape, bool)
+    its = np.zeros(t.shape, np.int64)
+    idx = np.arange(t.size)
+    for _ in range(max_iter):
+        if idx.size == 0:
+            break
+        tt = t[idx]
+        val, der = f(tt, idx)
+        its[idx] += 1
+        exact = val == 0
+        neg = val < 0
+        lo[idx] = np.where(neg, tt, lo[idx])
+        hi[idx] = np.where(~neg & ~exact, tt, hi[idx])
+        with np.errstate(all="ignore"):
+            tn = tt - val / der
+        a, b = lo[idx], hi[idx]
+        inside = np.isfinite(tn) & (tn > a) & (tn < b)
+        # Newton steps leaving the bracket are replaced by bisection.
+        mid = 0.5 * (a + b)
+        tn = np.where(inside, tn, mid)
+        width = b - a
+        fin = (
+            exact
+            | (width <= xtol * np.maximum(np.abs(a), np.abs(b)))
+            | (np.abs(tn - tt) <= xtol * np.abs(tt))
+        )
+        t[idx] = np.where(exact, tt, tn)
+        done[idx] = fin
+        idx = idx[~fin]
+    return t, done, its
