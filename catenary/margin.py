@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt import CableRobot
@@ -138,6 +139,17 @@ class CoupledMarginResult:
     status: NDArray
     iterations: NDArray
     residual: NDArray
+
+    def to_frame(self) -> pd.DataFrame:
+        """Tidy table, one row per pose: margin, status, iterations, residual, tensions."""
+        frame = pd.DataFrame(self.tensions,
+                             columns=[f"T{i + 1}" for i in range(self.tensions.shape[1])])
+        frame.insert(0, "pose", np.arange(len(self.margin)))
+        frame.insert(1, "status", self.status)
+        frame.insert(2, "margin", self.margin)
+        frame["iterations"] = self.iterations
+        frame["residual"] = self.residual
+        return frame
 
 
 class CoupledMargin:

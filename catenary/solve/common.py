@@ -8,11 +8,15 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidCableError
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = [
     "CONVERGED",
@@ -93,6 +97,19 @@ class ForcesResult:
     def T_B(self) -> FloatArray:
         """Tension magnitude at end B (N)."""
         return np.hypot(self.H, self.V_B)
+
+    def to_frame(self) -> pd.DataFrame:
+        """Tidy table, one row per cable (arrays flattened in C order)."""
+        import pandas as pd  # only for tables: the solvers themselves need numpy alone
+
+        columns = {"cable": np.arange(np.size(self.H))}
+        if isinstance(self, LengthResult):
+            columns["L0"] = np.ravel(self.L0)
+        columns.update(H=np.ravel(self.H), V_A=np.ravel(self.V_A), V_B=np.ravel(self.V_B),
+                       T_A=np.ravel(self.T_A), T_B=np.ravel(self.T_B),
+                       iterations=np.ravel(self.iterations),
+                       converged=np.ravel(self.converged), status=np.ravel(self.status))
+        return pd.DataFrame(columns)
 
 
 @dataclass(frozen=True)
