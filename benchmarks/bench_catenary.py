@@ -124,8 +124,7 @@ def main(n: int = 1_000_000) -> None:
             (f"MoorPy catenary(), {k} calls", f"{ns_mp:,.0f} ns per cable"),
             ("  ratio MoorPy / ours", f"{ns_mp / ns_ours:,.0f}x"),
         ]
-        sys.path.insert(0, str(ROOT / "tests"))
-        from catenary_sweep import sweep
+        from benchmarks.cable_cases import sweep
 
         s = sweep()
         ours = cat.solve_forces(**s)

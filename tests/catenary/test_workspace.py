@@ -17,16 +17,6 @@ from tension_opt import workspace as ws
 matplotlib.use("Agg")
 
 
-@pytest.fixture(scope="module")
-def poses() -> np.ndarray:
-    return ws.sample_poses([-46.5, -31.0, 0.0], [46.5, 31.0, 7.5], 240, seed=5)
-
-
-@pytest.fixture(scope="module")
-def steel(poses) -> cws.SagWorkspaceResult:
-    return cws.sag_workspace(to.presets.algae_harvester(t_max=15_000.0), poses,
-                             chunk_size=120)
-
 
 def test_light_cables_give_the_straight_workspace(poses):
     # Cable density 1e-3 kg/m^3: w = 3e-9 N/m, the catenaries are straight lines.

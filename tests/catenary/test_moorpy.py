@@ -5,17 +5,15 @@ from __future__ import annotations
 import contextlib
 import io
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import catenary as cat
+from benchmarks.cable_cases import sweep
 
 moorpy_catenary = pytest.importorskip("moorpy.Catenary").catenary
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from catenary_sweep import sweep  # noqa: E402
 
 # MoorPy needs a finite EA; this is inextensible for every case here.
 EA_RIGID = 1e25

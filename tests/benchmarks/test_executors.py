@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -11,23 +10,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import tension_opt
 from benchmarks import harness
 from benchmarks.cli import build_parser, main
-from benchmarks.scenarios import PROBLEMS, SCENARIOS, Scenario, pick_and_place
+from benchmarks.scenarios import PROBLEMS, Scenario, pick_and_place
 from tension_opt import presets
 from tension_opt.executors import DaskExecutor
 
-QP = "qpsolvers:daqp" if "qpsolvers:daqp" in tension_opt.available_backends() else "scipy:highs"
-#: Snapshots, the study's 25-pose path (with a sequential problem) and the seeded random set
-#: (its poses are rebuilt by each worker); default/cold.
-CELLS = [
-    *harness.plan([SCENARIOS["thesis_snapshots"], SCENARIOS["thesis_trajectory"]],
-                  [PROBLEMS[p] for p in ("min_sum", "min_norm", "pinv", "smoothed")],
-                  ["closed_form", QP], [harness.Setting()]),
-    *harness.plan([SCENARIOS["thesis_random"]], [PROBLEMS["min_sum"]], ["closed_form", QP],
-                  [harness.Setting()]),
-]
 TINY = Scenario("tiny_path", "first six poses of the study's path (not registered: lambdas)",
                 presets.algae_harvester, lambda r: pick_and_place()[:6], trajectory=True)
 
@@ -45,29 +33,6 @@ def _assert_same_table(frame: pd.DataFrame, expected: pd.DataFrame) -> None:
     pd.testing.assert_frame_equal(_stable(frame), _stable(expected), check_exact=True)
 
 
-@pytest.fixture(scope="module")
-def inprocess(tmp_path_factory: pytest.TempPathFactory,
-              ) -> tuple[harness.ResultsStore, pd.DataFrame]:
-    """Store and returned table of today's default run: cells in a forked, killable worker."""
-    store = harness.ResultsStore(tmp_path_factory.mktemp("inprocess"))
-    frame = harness.run(CELLS, store, progress=False)
-    assert len(frame) == len(CELLS) == 16
-    assert (frame["status"] == "ok").all(), frame[["backend", "problem", "message"]]
-    return store, frame
-
-
-@pytest.fixture(scope="module")
-def reference(inprocess: tuple[harness.ResultsStore, pd.DataFrame]) -> harness.ResultsStore:
-    """The store of the in-process run."""
-    return inprocess[0]
-
-
-@pytest.fixture(scope="module")
-def expected(inprocess: tuple[harness.ResultsStore, pd.DataFrame]) -> pd.DataFrame:
-    """The table the in-process run returned (full precision, before the CSV's rounding)."""
-    return inprocess[1]
-
-
 def _assert_same_traces(store: harness.ResultsStore, reference: harness.ResultsStore) -> None:
     traces, expected = store.load_traces(), reference.load_traces()
     assert traces.keys() == expected.keys() and len(traces) == 4  # closed_form on the path
@@ -75,32 +40,32 @@ def _assert_same_traces(store: harness.ResultsStore, reference: harness.ResultsS
         np.testing.assert_array_equal(traces[key], trace)
 
 
-def test_chunks_keep_order_scenarios_and_problem_groups() -> None:
-    chunks = harness.chunk_cells(CELLS, 3)
-    assert [c for chunk in chunks for c in chunk] == CELLS
+def test_chunks_keep_order_scenarios_and_problem_groups(cells: list[harness.Cell]) -> None:
+    chunks = harness.chunk_cells(cells, 3)
+    assert [c for chunk in chunks for c in chunk] == cells
     for chunk in chunks:
         assert len(chunk) <= 3 and len({id(c.scenario) for c in chunk}) == 1
     # Each (scenario, problem) pair has 2 cells: never split over chunks.
     owner = {(c.scenario.name, c.problem.name): i for i, ch in enumerate(chunks) for c in ch}
     assert all(owner[(c.scenario.name, c.problem.name)] == i
                for i, ch in enumerate(chunks) for c in ch)
-    assert [len(c) for c in harness.chunk_cells(CELLS, 1)] == [1] * len(CELLS)
+    assert [len(c) for c in harness.chunk_cells(cells, 1)] == [1] * len(cells)
     with pytest.raises(ValueError):
-        harness.chunk_cells(CELLS, 0)
+        harness.chunk_cells(cells, 0)
     # Registered scenarios and problems travel by name.
     payload = harness.CellChunk.of(chunks[0])
     assert payload.scenario == "thesis_snapshots" and payload.cells[0][0] == "min_sum"
 
 
-def test_process_pool_gives_the_same_table_and_resumes(
+def test_process_pool_gives_the_same_table_and_resumes(cells: list[harness.Cell],
         tmp_path: Path, expected: pd.DataFrame, reference: harness.ResultsStore) -> None:
     store = harness.ResultsStore(tmp_path)
-    frame = harness.run(CELLS, store, progress=False, executor="processes:2", chunk_size=3)
+    frame = harness.run(cells, store, progress=False, executor="processes:2", chunk_size=3)
     _assert_same_table(frame, expected)
     _assert_same_table(store.load(), reference.load())
     _assert_same_traces(store, reference)
     # A second run runs nothing: the stored rows, timings included, are untouched.
-    again = harness.run(CELLS, store, progress=False, executor="processes:2")
+    again = harness.run(cells, store, progress=False, executor="processes:2")
     pd.testing.assert_frame_equal(again, store.load())
     pd.testing.assert_frame_equal(_stable(again), _stable(frame), check_dtype=False,
                                   rtol=1e-5)  # the CSV keeps 6 significant digits
@@ -117,9 +82,9 @@ def test_unregistered_scenario_goes_to_a_pool_pickled(tmp_path: Path) -> None:
     _assert_same_table(pooled, here)
 
 
-def test_interrupted_executor_run_keeps_finished_chunks(tmp_path: Path,
+def test_interrupted_executor_run_keeps_finished_chunks(cells: list[harness.Cell], tmp_path: Path,
                                                         monkeypatch: pytest.MonkeyPatch) -> None:
-    cells = CELLS[:8]
+    cells = cells[:8]
     real = harness.run_chunk
     chunks: list[int] = []
 
@@ -145,7 +110,7 @@ def test_interrupted_executor_run_keeps_finished_chunks(tmp_path: Path,
     assert sum(chunks) == 4 and len(frame) == 8
 
 
-def test_failed_chunk_becomes_error_rows_and_the_run_goes_on(
+def test_failed_chunk_becomes_error_rows_and_the_run_goes_on(cells: list[harness.Cell],
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     real = harness.run_chunk
     calls: list[str] = []
@@ -157,27 +122,18 @@ def test_failed_chunk_becomes_error_rows_and_the_run_goes_on(
         return real(chunk)
 
     monkeypatch.setattr(harness, "run_chunk", failing)
-    frame = harness.run(CELLS[:6], harness.ResultsStore(tmp_path), progress=False,
+    frame = harness.run(cells[:6], harness.ResultsStore(tmp_path), progress=False,
                         executor="inprocess", chunk_size=2)
     assert list(frame["status"]) == ["error"] * 2 + ["ok"] * 4
     assert frame["message"].iloc[0] == "worker failed: RuntimeError: worker lost"
     assert len(calls) == 3  # every chunk ran once: the failure did not resend the rest
 
 
-@pytest.fixture(scope="module")
-def dask_client() -> Iterator[Any]:
-    distributed = pytest.importorskip("dask.distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  host="127.0.0.1", dashboard_address=None) as cluster, \
-            distributed.Client(cluster) as client:
-        yield client
-
-
-def test_dask_cluster_gives_the_same_table_and_resumes(
+def test_dask_cluster_gives_the_same_table_and_resumes(cells: list[harness.Cell],
         tmp_path: Path, expected: pd.DataFrame, reference: harness.ResultsStore,
         dask_client: Any) -> None:
     store = harness.ResultsStore(tmp_path)
-    frame = harness.run(CELLS, store, progress=False, executor=dask_client)
+    frame = harness.run(cells, store, progress=False, executor=dask_client)
     _assert_same_table(frame, expected)
     _assert_same_table(store.load(), reference.load())
     _assert_same_traces(store, reference)
@@ -186,18 +142,18 @@ def test_dask_cluster_gives_the_same_table_and_resumes(
     assert set(frame["machine"]) <= labels
     assert harness.executor_machines(DaskExecutor(dask_client)) >= labels
     assert dask_client.status == "running"  # a client passed in is left open
-    again = harness.run(CELLS, store, progress=False, executor=dask_client)
+    again = harness.run(cells, store, progress=False, executor=dask_client)
     pd.testing.assert_frame_equal(again, store.load())
     pd.testing.assert_frame_equal(_stable(again), _stable(frame), check_dtype=False,
                                   rtol=1e-5)
 
 
-def test_rows_of_cluster_machines_count_as_done(tmp_path: Path) -> None:
+def test_rows_of_cluster_machines_count_as_done(cells: list[harness.Cell], tmp_path: Path) -> None:
     store = harness.ResultsStore(tmp_path)
-    row = {**harness.base_row(CELLS[0]), "machine": "worker-7 / x86_64 / 64 cores"}
+    row = {**harness.base_row(cells[0]), "machine": "worker-7 / x86_64 / 64 cores"}
     store.append(row)
     assert store.done() == set()
-    assert store.done({"worker-7 / x86_64 / 64 cores"}) == {CELLS[0].key}
+    assert store.done({"worker-7 / x86_64 / 64 cores"}) == {cells[0].key}
 
 
 def test_command_line_executor_option(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,

@@ -27,7 +27,7 @@ from benchmarks.cli import main
 from benchmarks.scenarios import PROBLEMS, SCENARIOS
 from benchmarks.store import ResultsStore, StoreError
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 COMMITTED = ROOT / "benchmarks" / "results"
 TRIALS = 3
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}

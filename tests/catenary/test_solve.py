@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,11 +12,9 @@ from hypothesis import strategies as st
 
 import catenary as cat
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-from catenary_sweep import sweep  # noqa: E402
+DATA = Path(__file__).resolve().parents[1] / "data"
 
-VECTORS = json.loads((HERE / "data" / "catenary_vectors.json").read_text())["cases"]
+VECTORS = json.loads((DATA / "catenary_vectors.json").read_text())["cases"]
 
 
 def _case_args(c: dict) -> tuple[float, float, float, float, float]:
@@ -60,12 +57,6 @@ def test_inverse_recovers_reference_lengths(end: str) -> None:
 
 # ----------------------------------------------------------------------------
 # the sweep
-
-
-@pytest.fixture(scope="module")
-def swept() -> tuple[dict[str, np.ndarray], cat.ForcesResult]:
-    s = sweep()
-    return s, cat.solve_forces(**s)
 
 
 def test_sweep_covers_requested_ranges(swept) -> None:

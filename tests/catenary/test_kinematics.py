@@ -2,27 +2,12 @@
 
 from __future__ import annotations
 
-import json
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 import tension_opt as to
 from catenary.forward import forward_kinematics
 from catenary.inverse import inverse_kinematics
-
-DATA = Path(__file__).parent / "data"
-
-
-@pytest.fixture(scope="module")
-def snapshots() -> list[dict]:
-    return json.loads((DATA / "thesis_snapshots.json").read_text())["snapshots"]
-
-
-@pytest.fixture(scope="module")
-def thesis() -> to.CableRobot:
-    return to.presets.algae_harvester()
 
 
 def _thesis_poses(robot: to.CableRobot, N: int, seed: int) -> np.ndarray:

@@ -1,4 +1,5 @@
-"""Shared sweep of cable cases for the catenary tests and benchmark."""
+"""A sweep of single-cable cases (spans, slopes, weights, stiffnesses) for the catenary
+benchmark and tests: every combination of the grids below."""
 
 from __future__ import annotations
 
