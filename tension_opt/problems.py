@@ -73,26 +73,35 @@ class TensionProblem:
         object.__setattr__(self, "objective", objective)
         if self.weights is not None:
             weights = _as_array("weights", self.weights)
-            if weights.ndim != 1 or not np.isfinite(weights).all() or (weights <= 0).any():
+            if weights.ndim != 1:
+                raise InvalidInputError(
+                    f"weights must have shape (m,), one per cable, got shape {weights.shape}")
+            if not np.isfinite(weights).all() or (weights <= 0).any():
                 raise InvalidInputError(f"weights must be positive and finite, got {weights}")
             object.__setattr__(self, "weights", weights)
         if self.reference is not None:
-            reference = _as_array("reference", self.reference)
-            if not np.isfinite(reference).all():
-                raise InvalidInputError("reference tensions must be finite")
-            object.__setattr__(self, "reference", reference)
-        if not isinstance(self.smoothing, int | float | np.floating | np.integer) or not (
-                np.isfinite(self.smoothing) and self.smoothing >= 0):
+            object.__setattr__(self, "reference", _check_reference(self.reference, objective))
+        if (not _is_number(self.smoothing) or not np.isfinite(self.smoothing)
+                or self.smoothing < 0):
             raise InvalidInputError(f"smoothing must be a number >= 0, got {self.smoothing!r}")
         if self.rate_limit is not None:
             rate = _as_array("rate_limit", self.rate_limit)
-            if np.isnan(rate).any() or (rate <= 0).any():
-                raise InvalidInputError(f"rate_limit must be positive, got {rate}")
+            if rate.ndim > 1 or np.isnan(rate).any() or (rate <= 0).any():
+                raise InvalidInputError(
+                    f"rate_limit must be positive, a number or one per cable, got {rate}")
             object.__setattr__(self, "rate_limit", rate)
+        if not isinstance(self.tie_break, bool | np.bool_):
+            raise InvalidInputError(f"tie_break must be True or False, got {self.tie_break!r}")
         if not objective.bounded and (
             self.t_min is not None or self.t_max is not None or self.rate_limit is not None
         ):
-            raise InvalidInputError("the pseudo-inverse ignores bounds: use min_norm with bounds")
+            raise InvalidInputError("the pseudo-inverse takes no bounds (t_min, t_max, "
+                                    "rate_limit): use min_norm with bounds")
+        for name in ("t_min", "t_max"):
+            if getattr(self, name) is not None:
+                object.__setattr__(self, name, _check_bound(name, getattr(self, name)))
+        if self.t_min is not None and self.t_max is not None:
+            _check_order(self.t_min, self.t_max)
 
     # ----------------------------------------------------------------- naming
     @property
@@ -202,12 +211,17 @@ class TensionProblem:
             if not np.isfinite(prev).all():
                 raise InvalidInputError("previous tensions must be finite")
             if self.smoothing:
-                q += 2.0 * self.smoothing
-                c += -2.0 * self.smoothing * prev
+                with np.errstate(over="ignore"):  # an overflow is reported below
+                    q += 2.0 * self.smoothing
+                    c += -2.0 * self.smoothing * prev
             if self.rate_limit is not None:
-                rate = np.broadcast_to(self.rate_limit, (m,))
+                rate = _per_pose("rate_limit", self.rate_limit, 1, m)[0]
                 lb = np.maximum(lb, prev - rate)
                 ub = np.minimum(ub, prev + rate)
+        if not (np.isfinite(q).all() and np.isfinite(c).all()):
+            raise InvalidInputError(
+                "the objective overflows: weights, smoothing or reference too large "
+                f"(weights={self.weights}, smoothing={self.smoothing:g})")
         return StandardForm(A=A, b=b, lb=lb, ub=ub, q=q, c=c, minmax=terms.minmax,
                             problem=self, previous=prev, reference=reference)
 
@@ -230,11 +244,63 @@ class TensionProblem:
 
 
 def _as_array(name: str, value: ArrayLike) -> NDArray:
+    if isinstance(value, str | bytes):
+        raise InvalidInputError(f"{name} must be a number or an array of numbers, got "
+                                f"{value!r}")
     try:
         return np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         raise InvalidInputError(
-            f"{name} must be a number or an array of numbers, got {value!r}") from None
+            f"{name} must be a number or an array of numbers, got {value!r}"[:300]) from None
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
+        value, bool)
+
+
+def _check_bound(name: str, value: ArrayLike) -> NDArray | float:
+    """A tension bound (scalar, (m,) or (N, m)), checked as the robot checks its own:
+    cables only pull, ``t_min`` finite, ``t_max`` a number or ``+inf``."""
+    arr = _as_array(name, value)
+    if arr.ndim > 2:
+        raise InvalidInputError(
+            f"{name} must be a scalar or have shape (m,) or (N, m), got {arr.shape}")
+    if np.isnan(arr).any() or np.isneginf(arr).any() or (
+            name == "t_min" and np.isinf(arr).any()):
+        raise InvalidInputError(
+            f"{name} must be finite{' or +inf' if name == 't_max' else ''}, got {arr}"[:300])
+    if (arr < 0).any():
+        raise InvalidInputError(
+            f"{name} = {arr.min()} is negative: cables can only pull; give {name} >= 0")
+    return float(arr) if arr.ndim == 0 else arr
+
+
+def _check_order(t_min: ArrayLike, t_max: ArrayLike) -> None:
+    try:
+        above = np.asarray(t_min) > np.asarray(t_max)
+    except ValueError:
+        raise InvalidInputError(
+            f"t_min and t_max have shapes {np.shape(t_min)} and {np.shape(t_max)} that do "
+            "not broadcast") from None
+    if np.any(above):
+        raise InvalidInputError("t_min exceeds t_max for some cable")
+
+
+def _check_reference(value: ArrayLike, objective: Objective) -> NDArray:
+    if not objective.uses_reference:
+        raise InvalidInputError(
+            f"objective {objective.name} takes no reference tension (min_norm does)")
+    reference = _as_array("reference", value)
+    if reference.ndim > 2:
+        raise InvalidInputError(
+            f"reference must have shape (m,) or (N, m), got {reference.shape}")
+    if not np.isfinite(reference).all():
+        raise InvalidInputError("reference tensions must be finite")
+    if (reference < 0).any():
+        raise InvalidInputError(
+            f"reference tension {reference.min()} is negative: cables can only pull")
+    return reference
 
 
 def _per_pose(name: str, value: ArrayLike, N: int, m: int) -> NDArray:
@@ -305,10 +371,14 @@ class StandardForm:
 
     @property
     def kind(self) -> str:
-        """``"lp"``, ``"minmax"`` (LP in epigraph form) or ``"qp"``."""
+        """``"lp"``, ``"minmax"`` (LP in epigraph form), ``"minmax_qp"`` or ``"qp"``
+        (for an empty batch, what its problem would give)."""
+        quadratic = bool(self.q.any())
+        if self.N == 0 and self.problem is not None:
+            quadratic = not self.problem.is_linear
         if self.minmax is not None:
-            return "minmax" if not self.q.any() else "minmax_qp"
-        return "qp" if self.q.any() else "lp"
+            return "minmax_qp" if quadratic else "minmax"
+        return "qp" if quadratic else "lp"
 
     @property
     def is_linear(self) -> bool:
@@ -346,7 +416,7 @@ class StandardForm:
     # ------------------------------------------------------- measuring tensions
     def equilibrium_residual(self, tensions: NDArray) -> NDArray:
         """``||A T - b||_2`` of tensions (N, m), shape (N,) (N, N m)."""
-        return np.linalg.norm(np.einsum("nij,nj->ni", self.A, tensions) - self.b, axis=1)
+        return row_norms(np.einsum("nij,nj->ni", self.A, tensions) - self.b)
 
     def bound_violation(self, tensions: NDArray) -> NDArray:
         """Largest violation of ``lb <= T <= ub`` (N), shape (N,); 0 where they hold."""
@@ -365,14 +435,29 @@ class StandardForm:
 
     def tolerance_scale(self) -> NDArray:
         """Scale (N) of the feasibility check per pose: the larger of ``||b||`` and the
-        largest finite lower bound, shape (N,)."""
-        return np.maximum(np.linalg.norm(self.b, axis=1),
-                          np.where(np.isfinite(self.lb), np.abs(self.lb), 0.0).max(axis=1))
+        largest finite lower bound, at least ``1e-12`` N (the floor of :meth:`scale`, so
+        that a pose with nothing to hold and no lower bound is not held to zero), shape
+        (N,)."""
+        finite_lb = np.where(np.isfinite(self.lb), np.abs(self.lb), 0.0)
+        return np.maximum(np.maximum(row_norms(self.b), finite_lb.max(axis=1, initial=0.0)),
+                          1e-12)
 
     def scale(self) -> NDArray:
         """Typical tension per pose (N), used to normalise the solvers' units, shape (N,)
         (:func:`tension_opt.nullspace.typical_tension`)."""
         return typical_tension(self.A, self.b, self.lb)
+
+
+def row_norms(x: NDArray) -> NDArray:
+    """Euclidean norms of the rows of ``x`` (N, k), shape (N,), without overflow: rows
+    whose squares overflow (entries beyond about 1e154) are measured rescaled."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = np.linalg.norm(x, axis=1)
+        bad = ~np.isfinite(r)
+        if bad.any():
+            big = np.abs(x[bad]).max(axis=1, initial=0.0)
+            r[bad] = big * np.linalg.norm(x[bad] / big[:, None], axis=1)
+    return r
 
 
 def as_problem(objective: str | Objective | TensionProblem, **fields: Any) -> TensionProblem:

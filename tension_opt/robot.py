@@ -48,6 +48,16 @@ class CableProperties:
     linear_mass: float
     EA: float = float("inf")
 
+    def __post_init__(self) -> None:
+        _check_positive("cable diameter", self.diameter)
+        if not _is_number(self.linear_mass) or not np.isfinite(self.linear_mass) or (
+                self.linear_mass < 0):
+            raise InvalidInputError(
+                f"cable linear_mass must be a finite number >= 0 (kg/m), got {self.linear_mass!r}")
+        if not _is_number(self.EA) or np.isnan(self.EA) or self.EA <= 0:
+            raise InvalidInputError(
+                f"cable EA must be a positive number or inf (N), got {self.EA!r}")
+
     @classmethod
     def from_density(
         cls, diameter: float, density: float, EA: float = float("inf")
@@ -166,6 +176,12 @@ class CableRobot:
         if not _is_number(self.g) or not np.isfinite(self.g) or self.g < 0:
             raise InvalidInputError(f"g must be finite and >= 0, got {self.g!r}")
         com = _as_finite("com", self.com, (3,))
+        if not np.isfinite(self.mass * self.g):
+            raise InvalidInputError(
+                f"the platform's weight mass * g = {self.mass!r} * {self.g!r} overflows")
+        if self.cable is not None and not isinstance(self.cable, CableProperties):
+            raise InvalidInputError(
+                f"cable must be CableProperties or None, got {type(self.cable).__name__}")
         t_min = _per_cable("t_min", self.t_min, m)
         t_max = _per_cable("t_max", self.t_max, m)
         if np.isnan(t_min).any() or np.isinf(t_min).any():
@@ -302,6 +318,11 @@ class CableRobot:
             arms = np.broadcast_to(self.attachments, (len(p), *self.attachments.shape))
         vectors = self.anchors[None] - (position[:, None, :] + arms)
         lengths = np.sqrt(np.einsum("nmi,nmi->nm", vectors, vectors))
+        if not np.isfinite(lengths).all():
+            k = int(np.argmax(~np.isfinite(lengths).all(axis=1)))
+            raise InvalidInputError(
+                f"pose {k} ({p[k].tolist()}) is too far from the drawing points: its cable "
+                "lengths overflow")
         geometry = CableGeometry(p, position, R, arms, vectors, lengths,
                                  1e-12 * max(1.0, float(np.abs(self.anchors).max())))
         if check and geometry.degenerate.any():
@@ -376,6 +397,8 @@ class CableRobot:
                     f"got {np.shape(wrench)}"
                 ) from None
             b = b - w
+            if not np.isfinite(b).all():
+                raise InvalidInputError(f"wrench overflows when added to gravity: {wrench!r}"[:300])
         return b
 
     def forward_kinematics(
@@ -417,6 +440,12 @@ class CableRobot:
             )
         if (L <= 0).any():
             raise InvalidInputError("lengths must be positive")
+        if not isinstance(max_iter, int | np.integer) or isinstance(max_iter, bool) or (
+                max_iter < 0):
+            raise InvalidInputError(f"max_iter must be a whole number >= 0, got {max_iter!r}")
+        for name, value in (("tol", tol), ("consistency_tol", consistency_tol)):
+            if not _is_number(value) or not np.isfinite(value) or value < 0:
+                raise InvalidInputError(f"{name} must be a finite number >= 0, got {value!r}")
         N = L.shape[0]
         if initial_poses is None:
             start = self.default_home()

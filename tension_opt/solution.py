@@ -109,7 +109,9 @@ class TensionSolution:
             Tensions (N) as returned; set to NaN where the status is not a solution.
         status : array_like, shape (N,)
             :class:`Status` values; ``OPTIMAL`` is downgraded to ``INACCURATE`` where the
-            equilibrium or bounds miss :data:`FEASIBILITY_TOL` of the typical tension.
+            equilibrium or bounds miss :data:`FEASIBILITY_TOL` of the typical tension,
+            and ``OPTIMAL`` or ``INACCURATE`` to ``SOLVER_ERROR`` where a tension is not
+            finite: ``OPTIMAL`` always means finite tensions within the certificate.
         backend, solver, solver_version : str
             Labels of what solved it.
         unique, iterations, infeasibility : ndarray, shape (N,), optional
@@ -120,19 +122,25 @@ class TensionSolution:
         T = np.array(tensions, dtype=float)
         status = np.array(status, dtype=STATUS_DTYPE)
         solved = (status == Status.OPTIMAL) | (status == Status.INACCURATE)
+        # A "solution" with a non-finite tension is no solution, whatever the solver said.
+        broken = solved & ~np.isfinite(T).all(axis=1)
+        status[broken] = Status.SOLVER_ERROR
+        solved &= ~broken
         T[~solved] = np.nan
-        residual = form.equilibrium_residual(T)
-        violation = form.bound_violation(T)
+        with np.errstate(over="ignore", invalid="ignore"):
+            residual = form.equilibrium_residual(T)
+            violation = form.bound_violation(T)
+            objective = form.objective_value(T)
         violation[~solved] = np.nan
-        scale = form.tolerance_scale()
-        loose = solved & ((residual > FEASIBILITY_TOL * scale)
-                          | (violation > FEASIBILITY_TOL * scale))
-        status[loose] = Status.INACCURATE
+        tol = FEASIBILITY_TOL * form.tolerance_scale()
+        # Written so that a NaN measure (an overflow) fails the certificate.
+        certified = (residual <= tol) & (violation <= tol)
+        status[solved & ~certified] = Status.INACCURATE
         N = len(T)
         return cls(
             tensions=T, status=status,
             unique=np.ones(N, dtype=bool) if unique is None else np.asarray(unique, dtype=bool),
-            objective=form.objective_value(T), residual=residual, bound_violation=violation,
+            objective=objective, residual=residual, bound_violation=violation,
             iterations=iterations,
             infeasibility=np.full(N, np.nan) if infeasibility is None else infeasibility,
             setup_time=setup_time, solve_time=solve_time, backend=backend, solver=solver,

@@ -3,20 +3,41 @@
 A backend solves batches of :class:`~tension_opt.problems.StandardForm`. Generic
 solvers implement one stage (:meth:`Backend.solve_stage`); :meth:`Backend.solve` adds
 the two-stage tie-break of non-unique LP optima (:mod:`tension_opt.backends.tiebreak`).
+
+Contract of every backend (the rest of the package relies on it):
+
+- **Threads.** One instance serves every thread: a backend keeps no state of a call
+  in progress on itself (each backend's docstring says how: per-call solver objects,
+  per-thread caches or a lock).
+- **Honest statuses.** :meth:`Backend.solve` labels a pose ``OPTIMAL`` only with
+  finite tensions; a solver's exception on one pose becomes that pose's
+  ``SOLVER_ERROR``, its message kept in ``extras["errors"]``.
+- **Options.** ``solver_options`` a solver rejects (an unknown name, a value out of
+  range) raise :class:`~tension_opt.errors.SolverError` carrying the solver's message
+  before any pose is solved (:meth:`Backend.check_solver_options`).
 """
 
 from __future__ import annotations
 
+import re
+import threading
 import time
+import warnings
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from tension_opt.backends.tiebreak import low_dim_face_solve, lp_optimum_is_unique, optimal_face
+from tension_opt.backends.tiebreak import face_min_norm, lp_optimum_is_unique, optimal_face
+from tension_opt.errors import SolverError
 from tension_opt.problems import StandardForm
-from tension_opt.solution import Status, status_array
+from tension_opt.solution import STATUS_DTYPE, Status, status_array
+
+#: Per-pose solver messages kept in ``extras["errors"]`` (the first ones of a batch).
+MAX_ERRORS = 10
 
 
 @dataclass
@@ -63,7 +84,17 @@ class Backend:
         return None
 
     def solve(self, form: StandardForm, **options: Any) -> RawResult:
-        """Solve a batch; LP optima are tested for uniqueness and ties broken."""
+        """Solve a batch; LP optima are tested for uniqueness and ties broken.
+
+        Raises
+        ------
+        SolverError
+            If the solver rejects ``options["solver_options"]``.
+        """
+        self.check_solver_options(options)
+        return honest(self._solve_and_break_ties(form, options))
+
+    def _solve_and_break_ties(self, form: StandardForm, options: dict[str, Any]) -> RawResult:
         first = self.solve_stage(form, **options)
         problem = form.problem
         if not form.is_linear or (problem is not None and not problem.tie_break):
@@ -79,21 +110,26 @@ class Backend:
             t0 = time.perf_counter()
             face = optimal_face(form.subset(tied), first.tensions[tied])
             if self.unsupported(face) is not None:
-                # An LP-only solver: break the tie exactly on the (small) optimal face.
-                broken = low_dim_face_solve(form.subset(tied), first.tensions[tied])
-                if broken is None:
-                    first.extras["tie_break"] = "optimal face above 2-D: vertex kept"
-                else:
-                    first.tensions[tied] = broken
+                # An LP-only solver: break the tie exactly on the optimal face.
+                broken, found = face_min_norm(form.subset(tied), first.tensions[tied])
+                first.tensions[tied] = broken
+                if not found.all():
+                    first.extras["tie_break"] = (
+                        f"{int((~found).sum())} optimal face(s) empty after rounding: "
+                        "vertex kept")
                 first.solve_time += time.perf_counter() - t0
                 first.unique = unique
                 return first
             second = self.solve_stage(face, **options)
-            first.solve_time += time.perf_counter() - t0 - second.setup_time
-            first.setup_time += second.setup_time
             good = second.status == Status.OPTIMAL
             first.tensions[tied[good]] = second.tensions[good]
-            first.status[tied[~good]] = Status.INACCURATE
+            if not good.all():  # the solver failed on the face: break the tie exactly
+                bad = tied[~good]
+                broken, found = face_min_norm(form.subset(bad), first.tensions[bad])
+                first.tensions[bad] = broken
+                first.status[bad[~found]] = Status.INACCURATE
+            first.solve_time += time.perf_counter() - t0 - second.setup_time
+            first.setup_time += second.setup_time
             if first.iterations is not None and second.iterations is not None:
                 first.iterations[tied] += second.iterations
         first.unique = unique
@@ -103,8 +139,169 @@ class Backend:
         """Solve one stage (no tie-break). Generic backends override this."""
         raise NotImplementedError
 
+    # ------------------------------------------------------------ solver options
+    def rejected_options(self, user: Mapping[str, Any]) -> str | None:
+        """Why the solver would refuse ``user`` options it would otherwise ignore
+        silently (an unknown name), or None. Backends whose solver ignores unknown
+        names override this; the others are caught by :meth:`check_solver_options`."""
+        return None
+
+    def check_solver_options(self, options: Mapping[str, Any]) -> None:
+        """Raise :class:`SolverError` if the solver rejects the call's ``solver_options``.
+
+        The options are tried once (per backend, accuracy and options) on a two-cable
+        problem with a known answer: an exception, a warning of the solver or a
+        ``SOLVER_ERROR`` where the solver's defaults succeed is reported with the
+        solver's own message, instead of a silent ``solver_error`` on every pose.
+        """
+        user = options.get("solver_options")
+        if not user:
+            return
+        key = (self.name, repr(options.get("accuracy")), repr(options.get("time_limit")),
+               repr(sorted(user.items(), key=lambda item: str(item[0]))))
+        with _CHECKED_LOCK:
+            known = _CHECKED.get(key, _UNSEEN)
+        if known is _UNSEEN:
+            known = self.rejected_options(user) or self._probe_options(options)
+            with _CHECKED_LOCK:
+                _CHECKED[key] = known
+        if known is not None:
+            raise SolverError(f"{self.name} rejects solver_options={dict(user)!r}: {known}")
+
+    def _probe_options(self, options: Mapping[str, Any]) -> str | None:
+        forms = [probe_form(q) for q in (0.0, 2.0)]
+        form = next((f for f in forms if self.unsupported(f) is None), None)
+        if form is None:
+            return None
+        # Some solvers only warn about their options (scipy's linprog). Recording
+        # warnings swaps the process's filters, so no other solve may start or end
+        # meanwhile: the probe holds the lock of the solvers' filter.
+        with _QUIET.lock, warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            raw = self.solve_stage(form, **options)
+        errors = raw.extras.get("errors")
+        if errors:
+            return str(next(iter(errors.values())))
+        complaints = [str(w.message) for w in caught if _OPTION_WORDS.search(str(w.message))]
+        if complaints:
+            return "; ".join(complaints)
+        if raw.status[0] == Status.SOLVER_ERROR:
+            plain = {k: v for k, v in options.items() if k != "solver_options"}
+            if self.solve_stage(form, **plain).status[0] != Status.SOLVER_ERROR:
+                return "the solver fails with these options on a problem it solves without them"
+        return None
+
+
+#: Warnings of solvers about their options.
+_OPTION_WORDS = re.compile(r"unrecogni[sz]ed option|invalid option|unknown option|"
+                           r"undefined solver setting", re.IGNORECASE)
+_UNSEEN = object()
+_CHECKED: dict[tuple[str, ...], Any] = {}
+_CHECKED_LOCK = threading.Lock()
+
+
+def probe_form(q: float) -> StandardForm:
+    """A two-cable problem every solver settles at once: ``T1 + T2 = 1``, ``T >= 0``,
+    minimising ``T1 + 2 T2`` (``q = 0``, optimum (1, 0)) or ``q/2 |T|^2`` (optimum
+    (0.5, 0.5))."""
+    c = np.array([[1.0, 2.0]]) if q == 0 else np.zeros((1, 2))
+    return StandardForm(np.ones((1, 1, 2)), np.ones((1, 1)), np.zeros((1, 2)),
+                        np.full((1, 2), np.inf), np.full((1, 2), q), c)
+
+
+def honest(result: RawResult) -> RawResult:
+    """``result`` with ``OPTIMAL`` or ``INACCURATE`` poses whose tensions are not all
+    finite relabelled ``SOLVER_ERROR`` (and their tensions NaN)."""
+    result.status = np.asarray(result.status, dtype=STATUS_DTYPE)  # room for every value
+    solved = (result.status == Status.OPTIMAL) | (result.status == Status.INACCURATE)
+    bad = solved & ~np.isfinite(result.tensions).all(axis=1)
+    if bad.any():
+        result.status[bad] = Status.SOLVER_ERROR
+        result.tensions[bad] = np.nan
+        errors = result.extras.setdefault("errors", {})
+        for i in np.flatnonzero(bad)[:MAX_ERRORS]:
+            errors.setdefault(int(i), "non-finite tensions returned as a solution")
+    return result
+
+
+def describe(error: BaseException) -> str:
+    """A solver's exception as text: its type and message (OSQP's bare error codes
+    get their names; OSQP prints the details itself)."""
+    chain = [error]
+    while len(chain) < 5 and (chain[-1].__cause__ or chain[-1].__context__) is not None:
+        chain.append(chain[-1].__cause__ or chain[-1].__context__)  # type: ignore[arg-type]
+    # OSQP's own exception, wherever a wrapper (cvxpy) or its helpers put it.
+    error = next((e for e in chain if type(e).__name__ == "OSQPException"), error)
+    text = str(error)
+    if type(error).__name__ == "OSQPException" and text.strip().isdigit():
+        try:
+            from osqp.ext_builtin import osqp_error_type
+
+            text = f"{osqp_error_type(int(text)).name} (OSQP printed the details)"
+        except (ImportError, ValueError):
+            text = f"OSQP error {text}"
+    return f"{type(error).__name__}: {text}"
+
+
+def note_error(extras: dict[str, Any], pose: int, error: BaseException) -> None:
+    """Keep the message of a solver's exception on ``pose`` in ``extras["errors"]``."""
+    errors = extras.setdefault("errors", {})
+    if len(errors) < MAX_ERRORS:
+        errors[pose] = describe(error)
+
 
 def pose_loop_result(N: int, m: int) -> tuple[NDArray, NDArray, NDArray]:
     """Empty tensions (NaN), statuses (NOT_RUN) and iterations (0) for a pose loop."""
     return np.full((N, m), np.nan), status_array(N, Status.NOT_RUN), np.zeros(
         N, dtype=int)
+
+
+class _Quiet:
+    """Process-wide silencing of the solver libraries' own warnings, counted by user.
+
+    Their warnings (a matrix converted to CSC, "OSQP exited with status ...") repeat
+    what the statuses say. :func:`warnings.catch_warnings` per call is not safe across
+    threads (overlapping calls restore each other's filters and can leave warnings off
+    for good), so one filter is added when the first solve starts and removed when the
+    last one ends.
+    """
+
+    #: Modules whose warnings are silenced, and messages (cvxpy attributes its
+    #: "Solution may be inaccurate" to the caller).
+    MODULES = r"(qpsolvers|osqp|cvxpy|scs|clarabel|piqp|proxsuite|daqp|highspy)(\.|$)"
+    MESSAGES = r"Solution may be inaccurate"
+
+    def __init__(self) -> None:
+        # Re-entrant: an option probe holds it around solves that enter it again.
+        self.lock = threading.RLock()
+        self.users = 0
+        self.entries: list[Any] = []
+
+    def enter(self) -> None:
+        with self.lock:
+            if self.users == 0:
+                warnings.filterwarnings("ignore", module=self.MODULES)
+                warnings.filterwarnings("ignore", message=self.MESSAGES)
+                self.entries = list(warnings.filters[:2])
+            self.users += 1
+
+    def leave(self) -> None:
+        with self.lock:
+            self.users -= 1
+            if self.users == 0:
+                for entry in self.entries:
+                    if entry in warnings.filters:
+                        warnings.filters.remove(entry)
+
+
+_QUIET = _Quiet()
+
+
+@contextmanager
+def quiet_solvers() -> Iterator[None]:
+    """Silence the solver libraries' warnings while the block runs (thread-safe)."""
+    _QUIET.enter()
+    try:
+        yield
+    finally:
+        _QUIET.leave()

@@ -9,13 +9,21 @@ from __future__ import annotations
 
 import threading
 import time
-import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from tension_opt.backends.base import Backend, RawResult, pose_loop_result
+from tension_opt.backends.base import (
+    Backend,
+    RawResult,
+    note_error,
+    pose_loop_result,
+    quiet_solvers,
+)
+from tension_opt.backends.dense import scaled_objective, working_scale
 from tension_opt.backends.settings import solver_options
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.problems import StandardForm
@@ -30,6 +38,8 @@ except ImportError:  # pragma: no cover - cvxpy is a runtime dependency
 LP_ONLY = {"SCIPY", "GLOP", "CBC", "GLPK"}
 #: QP solvers unsuited to LPs: PROXQP failed on a quarter of the study's min-sum poses.
 _NO_LP = {"PROXQP"}
+#: The options cvxpy's ProxQP interface passes on (it drops any other).
+_PROXQP_OPTIONS = ("backend", "eps_abs", "eps_rel", "max_iter", "rho", "mu_eq", "mu_in")
 _STATUS = {
     "optimal": Status.OPTIMAL,
     "optimal_inaccurate": Status.INACCURATE,
@@ -76,29 +86,31 @@ class _Compiled:
             self.q = cp.Parameter((K, m), nonneg=True)
             objective = objective + 0.5 * cp.sum(cp.multiply(self.q, cp.square(x)))
         self.v_scale = None
-        if form.minmax is not None:
-            weights = np.broadcast_to(form.minmax, (K, m))
+        if form.minmax is not None:  # unit-scaled weights, as the scaled objective has them
+            vmax = float(np.abs(form.minmax).max(initial=0.0)) or 1.0
+            weights = np.broadcast_to(form.minmax / vmax, (K, m))
             self.v_scale = cp.Parameter(K, nonneg=True)
             peaks = cp.max(cp.multiply(weights, x), axis=1)
             objective = objective + cp.sum(cp.multiply(self.v_scale, peaks))
         self.x = x
         self.problem = cp.Problem(cp.Minimize(objective), constraints)
 
-    def load(self, form: StandardForm, rows: NDArray, s: NDArray, sigma: NDArray,
-             lb_mask: NDArray, ub_mask: NDArray) -> None:
-        """Set the parameters to the poses ``rows`` (length K) of ``form``."""
+    def load(self, call: _Call, rows: NDArray) -> None:
+        """Set the parameters to the poses ``rows`` (length K) of ``call.form``."""
+        form, s = call.form, call.s[rows]
+        lb_mask, ub_mask = call.lb_fin[rows], call.ub_fin[rows]
         for k, i in enumerate(rows):
             self.A[k].value = form.A[i]
         self.b.value = form.b[rows] / s[:, None]
-        self.c.value = form.c[rows] * (s / sigma)[:, None]
+        self.c.value = call.c[rows]
         if self.lb is not None:
             self.lb.value = (form.lb[rows] / s[:, None])[lb_mask]
         if self.ub is not None:
             self.ub.value = (form.ub[rows] / s[:, None])[ub_mask]
         if self.q is not None:
-            self.q.value = form.q[rows] * (s**2 / sigma)[:, None]
+            self.q.value = call.P[rows]
         if self.v_scale is not None:
-            self.v_scale.value = s / sigma
+            self.v_scale.value = call.tau[rows]
         if self.G is not None and self.h is not None:
             assert form.G is not None and form.h is not None  # compiled from such a form
             for k, i in enumerate(rows):
@@ -122,8 +134,10 @@ def _cache() -> dict[tuple[Any, ...], _Compiled]:
 class CvxpyBackend(Backend):
     """Any installed cvxpy solver; the problem is compiled once and re-solved per pose.
 
-    Thread safety: compiled problems are kept per thread, so one backend instance can
-    be called from several threads at once.
+    Thread safety: per-thread caches. A compiled problem holds the parameter values of
+    the call in progress, so each thread keeps its own compiled problems; the solvers
+    behind cvxpy build their workspace per solve. One backend instance can therefore be
+    called from several threads at once, with the answers of serial calls.
     """
 
     warm_start = True
@@ -157,6 +171,20 @@ class CvxpyBackend(Backend):
             return f"{self.name} is a QP solver unsuited to LPs (zero Hessian); use a QP objective"
         return None
 
+    def rejected_options(self, user: Mapping[str, Any]) -> str | None:
+        # cvxpy's DAQP and ProxQP interfaces drop the option names they do not pass on.
+        known: tuple[str, ...] | None = None
+        if self._solver == "DAQP":
+            from cvxpy.reductions.solvers.qp_solvers.daqp_qpif import DAQP
+
+            known = tuple(DAQP.ALLOWED_SOLVER_OPTS)
+        elif self._solver == "PROXQP":
+            known = _PROXQP_OPTIONS
+        unknown = [] if known is None else sorted(set(map(str, user)) - set(known))
+        if unknown:
+            return f"cvxpy's {self._solver} ignores {unknown}; it takes {sorted(known or ())}"
+        return None
+
     def _compiled(self, form: StandardForm, lb_mask: NDArray, ub_mask: NDArray) -> tuple[
             _Compiled, float]:
         key = (self._solver, form.n, form.m, form.kind, form.q.any(), form.minmax is not None,
@@ -179,69 +207,87 @@ class CvxpyBackend(Backend):
         the solve that produced the pose.
         """
         t_setup = time.perf_counter()
-        N, m = form.N, form.m
-        s = form.scale()
-        sigma = s**2 if form.q.any() else s
-        settings = solver_options(self._solver, options.get("accuracy"),
-                                  options.get("time_limit"), options.get("solver_options"),
-                                  interface="cvxpy")
-        warm = bool(options.get("warm_start", False))
+        s = working_scale(form)
+        call = _Call(form, s, *scaled_objective(form, s)[:3], np.isfinite(form.lb),
+                     np.isfinite(form.ub), bool(options.get("warm_start", False)),
+                     solver_options(self._solver, options.get("accuracy"),
+                                    options.get("time_limit"), options.get("solver_options"),
+                                    interface="cvxpy"))
         # Joint stopping criteria loosen per-pose accuracy, so high accuracy goes pose by pose.
         default_k = 1 if options.get("accuracy") == "high" else 16
-        K = max(1, min(int(options.get("batch_size", default_k)), N))
-        lb_fin, ub_fin = np.isfinite(form.lb), np.isfinite(form.ub)
-        T, status, iters = pose_loop_result(N, m)
-        has_iters = True
-        compile_time = 0.0
+        K = max(1, min(int(options.get("batch_size") or default_k), form.N))
         setup = time.perf_counter() - t_setup
         t0 = time.perf_counter()
+        with quiet_solvers():
+            result = self._solve_chunks(call, K)
+        elapsed = time.perf_counter() - t0
+        compile_time = result.setup_time
+        result.setup_time, result.solve_time = setup + compile_time, elapsed - compile_time
+        return result
+
+    def _solve_chunks(self, call: _Call, K: int) -> RawResult:
+        """Solve the poses of ``call`` in chunks of ``K``; compile time is the setup."""
+        N, m = call.form.N, call.form.m
+        T, status, iters = pose_loop_result(N, m)
+        extras: dict[str, Any] = {}
+        has_iters = True
+        compile_time = 0.0
         for start in range(0, N, K):
             # The last chunk is padded with its own last pose to keep one compiled size.
             rows = np.minimum(np.arange(start, start + K), N - 1)
-            chunk_ok = False
             if K > 1:
-                compiled, dt = self._compiled(form, lb_fin[rows], ub_fin[rows])
+                compiled, dt = self._compiled(call.form, call.lb_fin[rows], call.ub_fin[rows])
                 compile_time += dt
-                result = self._run(compiled, form, rows, s, sigma, lb_fin, ub_fin, warm,
-                                   settings)
-                chunk_ok = result[0] == Status.OPTIMAL
-            if chunk_ok:
-                st, count, x = result
-                assert x is not None  # an optimal solve has values
-                real = rows[: min(K, N - start)]
-                T[real] = x[: len(real)] * s[real, None]
-                status[real] = st
-                has_iters &= count is not None
-                iters[real] = count or 0
-                continue
+                st, count, x = self._run(compiled, call, rows, extras)
+                if st == Status.OPTIMAL and x is not None:
+                    real = rows[: min(K, N - start)]
+                    T[real] = x[: len(real)] * call.s[real, None]
+                    status[real] = st
+                    has_iters &= count is not None
+                    iters[real] = count or 0
+                    continue
+                extras.pop("errors", None)  # the poses say for themselves below
             for i in range(start, min(start + K, N)):
                 one = np.array([i])
-                compiled, dt = self._compiled(form, lb_fin[one], ub_fin[one])
+                compiled, dt = self._compiled(call.form, call.lb_fin[one], call.ub_fin[one])
                 compile_time += dt
-                st, count, x = self._run(compiled, form, one, s, sigma, lb_fin, ub_fin, warm,
-                                         settings)
+                st, count, x = self._run(compiled, call, one, extras)
                 status[i] = st
                 has_iters &= count is not None
                 iters[i] = count or 0
                 if x is not None and st in (Status.OPTIMAL, Status.INACCURATE):
-                    T[i] = x[0] * s[i]
-        elapsed = time.perf_counter() - t0
-        return RawResult(T, status, iters if has_iters else None, setup + compile_time,
-                         elapsed - compile_time)
+                    T[i] = x[0] * call.s[i]
+        return RawResult(T, status, iters if has_iters else None, compile_time, 0.0,
+                         extras=extras)
 
-    def _run(self, compiled: _Compiled, form: StandardForm, rows: NDArray, s: NDArray,
-             sigma: NDArray, lb_fin: NDArray, ub_fin: NDArray, warm: bool,
-             settings: dict[str, Any]) -> tuple[Status, int | None, NDArray | None]:
-        compiled.load(form, rows, s[rows], sigma[rows], lb_fin[rows], ub_fin[rows])
+    def _run(self, compiled: _Compiled, call: _Call, rows: NDArray, extras: dict[str, Any]
+             ) -> tuple[Status, int | None, NDArray | None]:
         try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                compiled.problem.solve(solver=self._solver, warm_start=warm, **settings)
-        except Exception:
+            compiled.load(call, rows)
+            compiled.problem.solve(solver=self._solver, warm_start=call.warm, **call.settings)
+        except Exception as error:  # a solver's failure on these poses
+            note_error(extras, int(rows[0]), error)
             return Status.SOLVER_ERROR, None, None
         stats = compiled.problem.solver_stats
         return (_STATUS.get(compiled.problem.status, Status.SOLVER_ERROR),
                 None if stats is None else stats.num_iters, compiled.x.value)
+
+
+@dataclass(frozen=True)
+class _Call:
+    """What every solve of one :meth:`CvxpyBackend.solve_stage` call shares."""
+
+    form: StandardForm
+    #: Typical tension per pose (N,), and the scaled Hessian, cost (N, m) and min-max
+    #: epigraph cost (N,) of :func:`~tension_opt.backends.dense.scaled_objective`.
+    s: NDArray
+    P: NDArray
+    c: NDArray
+    tau: NDArray
+    lb_fin: NDArray
+    ub_fin: NDArray
+    warm: bool
+    settings: dict[str, Any]
 
 
 def available() -> list[str]:

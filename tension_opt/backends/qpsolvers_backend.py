@@ -7,14 +7,20 @@ adds a conversion per call that dominates problems of this size).
 from __future__ import annotations
 
 import time
-import warnings
+from collections.abc import Mapping
 from ctypes import c_int
 from functools import cached_property
 from typing import Any
 
 import numpy as np
 
-from tension_opt.backends.base import Backend, RawResult, pose_loop_result
+from tension_opt.backends.base import (
+    Backend,
+    RawResult,
+    note_error,
+    pose_loop_result,
+    quiet_solvers,
+)
 from tension_opt.backends.dense import DenseBatch, dense_batch
 from tension_opt.backends.settings import solver_options
 from tension_opt.errors import BackendNotAvailableError
@@ -52,17 +58,31 @@ def iterations_of(extras: dict[str, Any]) -> int | None:
     return None
 
 
-def _status_from(extras: dict[str, Any]) -> Status:
-    text = str(extras.get("status", "")) + str(getattr(extras.get("info"), "status", ""))
-    if "infeas" in text.lower():
+def failure_status(extras: dict[str, Any]) -> Status:
+    """Status of an unsuccessful qpsolvers solve, from the solver's own status text."""
+    text = (str(extras.get("status", "")) + " "
+            + str(getattr(extras.get("info"), "status", ""))).lower().replace("_", "")
+    if "dualinfeas" in text.replace(" ", ""):
+        return Status.UNBOUNDED
+    if "infeas" in text:
         return Status.INFEASIBLE
-    if "max_iter" in text.lower():
+    if any(word in text for word in ("maxiter", "iterations", "timelimit", "time limit")):
         return Status.MAX_ITER
+    if "inaccurate" in text or "almostsolved" in text:
+        return Status.INACCURATE
     return Status.SOLVER_ERROR
 
 
 class QpsolversBackend(Backend):
-    """Any qpsolvers solver, one pose at a time (warm start from the previous pose)."""
+    """Any qpsolvers solver, one pose at a time (warm start from the previous pose).
+
+    Thread safety: per-call solver objects. Every pose builds its own problem and
+    solver workspace (qpsolvers creates a new OSQP, Clarabel, PIQP, ProxQP, SCS or
+    HiGHS instance per solve, and HiGHS keeps one task scheduler per calling thread;
+    DAQP and quadprog are plain functions of their arguments), and the instance holds
+    no state of a call, so one instance serves several threads at once without a
+    lock, with the answers of serial calls.
+    """
 
     warm_start = True
 
@@ -95,6 +115,27 @@ class QpsolversBackend(Backend):
             return f"{self.name} is a QP solver unsuited to LPs (zero Hessian); use a QP objective"
         return None
 
+    def rejected_options(self, user: Mapping[str, Any]) -> str | None:
+        # PIQP and HiGHS (through qpsolvers) skip option names they do not know.
+        if self._solver == "piqp":
+            import piqp
+
+            known = {k for k in dir(piqp.DenseSolver().settings) if not k.startswith("_")}
+            unknown = sorted(set(map(str, user)) - known)
+            if unknown:
+                return f"unknown PIQP setting(s) {unknown}; PIQP takes {sorted(known)}"
+        if self._solver == "highs":
+            import highspy
+
+            highs = highspy.Highs()
+            highs.setOptionValue("output_flag", False)
+            bad = [f"{k}={v!r}" for k, v in user.items()
+                   if highs.setOptionValue(str(k), v) != highspy.HighsStatus.kOk]
+            if bad:
+                return (f"HiGHS refuses {', '.join(bad)} (an unknown option name, or a value "
+                        "of the wrong type or out of range)")
+        return None
+
     def solve_stage(self, form: StandardForm, **options: Any) -> RawResult:
         t0 = time.perf_counter()
         batch = dense_batch(form)
@@ -102,14 +143,16 @@ class QpsolversBackend(Backend):
                                   options.get("time_limit"), options.get("solver_options"))
         warm = bool(options.get("warm_start", False))
         setup = time.perf_counter() - t0
-        if self._solver == "daqp":
-            return self._solve_daqp(batch, settings, warm, setup)
-        return self._solve_generic(batch, settings, warm, setup)
+        with quiet_solvers():
+            if self._solver == "daqp":
+                return self._solve_daqp(batch, settings, warm, setup)
+            return self._solve_generic(batch, settings, warm, setup)
 
     def _solve_generic(self, batch: DenseBatch, settings: dict[str, Any], warm: bool,
                        setup: float) -> RawResult:
         N, k = batch.N, batch.k
         x_all, status, iters = pose_loop_result(N, k)
+        extras: dict[str, Any] = {}
         has_iters = True
         t0 = time.perf_counter()
         x_prev = None
@@ -121,13 +164,11 @@ class QpsolversBackend(Backend):
             problem = qpsolvers.Problem(np.diag(batch.P[i]), batch.c[i], G, h, batch.Aeq[i],
                                         batch.beq[i], lb, ub)
             try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    sol = qpsolvers.solve_problem(problem, solver=self._solver,
-                                                  initvals=x_prev if warm else None,
-                                                  **settings)
-            except Exception:
+                sol = qpsolvers.solve_problem(problem, solver=self._solver,
+                                              initvals=x_prev if warm else None, **settings)
+            except Exception as error:  # a solver's failure on one pose
                 status[i] = Status.SOLVER_ERROR
+                note_error(extras, i, error)
                 continue
             count = iterations_of(sol.extras or {})
             has_iters &= count is not None
@@ -136,10 +177,15 @@ class QpsolversBackend(Backend):
                 x_all[i], status[i] = sol.x, Status.OPTIMAL
                 x_prev = sol.x
             else:
-                status[i] = _status_from(sol.extras or {})
+                status[i] = failure_status(sol.extras or {})
+                if status[i] == Status.INACCURATE:  # keep an inaccurate solution's values
+                    if sol.x is not None and np.isfinite(sol.x).all():
+                        x_all[i] = sol.x
+                    else:
+                        status[i] = Status.SOLVER_ERROR
         elapsed = time.perf_counter() - t0
         return RawResult(batch.tensions(x_all), status, iters if has_iters else None, setup,
-                         elapsed)
+                         elapsed, extras=extras)
 
     def _solve_daqp(self, batch: DenseBatch, settings: dict[str, Any], warm: bool,
                     setup: float) -> RawResult:
@@ -158,20 +204,26 @@ class QpsolversBackend(Backend):
         H = np.zeros((N, k, k))
         H[:, np.arange(k), np.arange(k)] = batch.P
         x_all, status, iters = pose_loop_result(N, k)
+        extras: dict[str, Any] = {}
         setup += time.perf_counter() - t0
         t0 = time.perf_counter()
         solve = daqp.solve
         Hs, c, A, ups, lows = (list(H), list(batch.c), list(rows), list(upper), list(lower))
-        flags = np.empty(N, dtype=int)
+        flags = np.zeros(N, dtype=int)
         # Results go straight into arrays: holding DAQP's per-call outputs (arrays and
         # dicts) until the end of the loop cost as much as the solves themselves.
         x_prev = None
         for i in range(N):
-            if warm or settings:
-                x, _, flag, info = solve(Hs[i], c[i], A[i], ups[i], lows[i], sense,
-                                         primal_start=x_prev if warm else None, **settings)
-            else:  # the common case, free of keyword handling
-                x, _, flag, info = solve(Hs[i], c[i], A[i], ups[i], lows[i], sense)
+            try:
+                if warm or settings:
+                    x, _, flag, info = solve(Hs[i], c[i], A[i], ups[i], lows[i], sense,
+                                             primal_start=x_prev if warm else None,
+                                             **settings)
+                else:  # the common case, free of keyword handling
+                    x, _, flag, info = solve(Hs[i], c[i], A[i], ups[i], lows[i], sense)
+            except Exception as error:  # a solver's failure on one pose
+                note_error(extras, i, error)
+                continue
             flags[i] = flag
             iters[i] = info["iterations"]
             if flag > 0:
@@ -182,7 +234,7 @@ class QpsolversBackend(Backend):
         for j in np.flatnonzero(~good):
             status[j] = _DAQP_EXIT.get(int(flags[j]), Status.SOLVER_ERROR)
         elapsed = time.perf_counter() - t0
-        return RawResult(batch.tensions(x_all), status, iters, setup, elapsed)
+        return RawResult(batch.tensions(x_all), status, iters, setup, elapsed, extras=extras)
 
 
 def available() -> list[str]:

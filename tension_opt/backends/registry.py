@@ -59,24 +59,30 @@ def available_backends() -> list[str]:
 def get_backend(name: str) -> Backend:
     """Backend instance for a registry name such as ``"cvxpy:CLARABEL"``.
 
-    Backends hold no per-call state, so one instance per name is kept and reused.
+    Backends hold no state of a call (each says how it serves threads), so one instance
+    per name is kept and shared by every thread.
 
     Raises
     ------
     BackendNotAvailableError
-        For an unknown family, or a solver that is not installed.
+        For a name that is not a string, an unknown family, or a solver (suffix) that
+        is not installed; the message lists the installed backends.
     """
+    if not isinstance(name, str):
+        raise BackendNotAvailableError(
+            f"backend must be a registry name or a Backend, got {name!r}; "
+            f"installed: {available_backends()}")
     with _LOCK:
         if name not in _INSTANCES:
-            if not isinstance(name, str):
-                raise BackendNotAvailableError(
-                    f"backend must be a registry name or a Backend, got {name!r}; "
-                    f"installed: {available_backends()}")
             prefix, _, solver = name.partition(":")
             if prefix not in FAMILIES:
                 raise BackendNotAvailableError(
                     f"unknown backend {name!r}; installed: {available_backends()}")
-            _INSTANCES[name] = _family(prefix).make(solver or None)
+            try:
+                _INSTANCES[name] = _family(prefix).make(solver or None)
+            except BackendNotAvailableError as error:
+                raise BackendNotAvailableError(
+                    f"{error}; installed backends: {available_backends()}") from None
         return _INSTANCES[name]
 
 
@@ -110,7 +116,7 @@ def choose_backend(backend: str | Backend, form: StandardForm,
     label = what or (form.problem.name if form.problem is not None else "this problem")
     if isinstance(backend, Backend):
         chosen = backend
-    elif backend == "auto":
+    elif isinstance(backend, str) and backend == "auto":
         installed = set(available_backends())
         for name in order:
             if name in installed and get_backend(name).unsupported(form) is None:

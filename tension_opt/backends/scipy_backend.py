@@ -13,7 +13,7 @@ import numpy as np
 import scipy
 from scipy.optimize import linprog
 
-from tension_opt.backends.base import Backend, RawResult, pose_loop_result
+from tension_opt.backends.base import Backend, RawResult, note_error, pose_loop_result
 from tension_opt.backends.dense import dense_batch
 from tension_opt.backends.settings import solver_options
 from tension_opt.errors import BackendNotAvailableError
@@ -25,7 +25,15 @@ _LINPROG_STATUS = {0: Status.OPTIMAL, 1: Status.MAX_ITER, 2: Status.INFEASIBLE,
 
 
 class ScipyHighsBackend(Backend):
-    """HiGHS through scipy's linprog, one pose at a time."""
+    """HiGHS through scipy's linprog, one pose at a time.
+
+    Thread safety: per-call solver objects. Each :func:`~scipy.optimize.linprog` call
+    builds its own HiGHS instance (HiGHS keeps one task scheduler per calling thread)
+    and the backend holds no state of a call, so one instance serves several threads
+    at once without a lock, with the answers of serial calls. linprog only warns about
+    options it does not know; such ``solver_options`` are refused before the batch
+    (:meth:`~tension_opt.backends.base.Backend.check_solver_options`).
+    """
 
     name = "scipy:highs"
 
@@ -45,6 +53,7 @@ class ScipyHighsBackend(Backend):
                                   options.get("solver_options"), interface="scipy")
         N, k = batch.N, batch.k
         x_all, status, iters = pose_loop_result(N, k)
+        extras: dict[str, Any] = {}
         setup = time.perf_counter() - t0
         t0 = time.perf_counter()
         for i in range(N):
@@ -52,14 +61,20 @@ class ScipyHighsBackend(Backend):
                                batch.ub[i]], axis=1)
             G = batch.G[i] if batch.G.shape[1] else None
             h = batch.h[i] if batch.G.shape[1] else None
-            res = linprog(batch.c[i], A_ub=G, b_ub=h, A_eq=batch.Aeq[i], b_eq=batch.beq[i],
-                          bounds=bounds, method="highs", options=settings)
+            try:
+                res = linprog(batch.c[i], A_ub=G, b_ub=h, A_eq=batch.Aeq[i],
+                              b_eq=batch.beq[i], bounds=bounds, method="highs",
+                              options=settings)
+            except Exception as error:  # a solver's failure on one pose
+                status[i] = Status.SOLVER_ERROR
+                note_error(extras, i, error)
+                continue
             status[i] = _LINPROG_STATUS.get(res.status, Status.SOLVER_ERROR)
             iters[i] = int(getattr(res, "nit", 0) or 0)
             if res.status == 0:
                 x_all[i] = res.x
         elapsed = time.perf_counter() - t0
-        return RawResult(batch.tensions(x_all), status, iters, setup, elapsed)
+        return RawResult(batch.tensions(x_all), status, iters, setup, elapsed, extras=extras)
 
 
 def available() -> list[str]:

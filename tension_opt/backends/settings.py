@@ -13,9 +13,12 @@ differently.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
+
+import numpy as np
 
 from tension_opt.errors import InvalidInputError
 
@@ -87,10 +90,10 @@ def check_accuracy(accuracy: object) -> str:
     """
     if accuracy is None:
         return "default"
-    if accuracy not in ACCURACIES:
+    if not isinstance(accuracy, str) or accuracy not in ACCURACIES:
         raise InvalidInputError(
             f"accuracy must be one of {list(ACCURACIES)}, got {accuracy!r}")
-    return str(accuracy)
+    return accuracy
 
 
 def check_options(options: Mapping[str, Any]) -> None:
@@ -100,21 +103,38 @@ def check_options(options: Mapping[str, Any]) -> None:
     ------
     InvalidInputError
         For an unknown option (listing the known ones), an unknown accuracy, a time
-        limit that is not a positive number, or ``solver_options`` that is not a dict.
+        limit that is not a positive number of seconds, a ``batch_size`` that is not a
+        positive whole number, a ``warm_start`` that is not a bool, or
+        ``solver_options`` that is not a dict with names as keys.
     """
-    unknown = sorted(set(options) - set(OPTIONS))
+    unknown = sorted(map(str, set(options) - set(OPTIONS)))
     if unknown:
         raise InvalidInputError(
             f"unknown option(s) {unknown}; backends take {list(OPTIONS)} (a solver's own "
             "settings go in solver_options={...})")
     check_accuracy(options.get("accuracy"))
     limit = options.get("time_limit")
-    if limit is not None and not (isinstance(limit, int | float) and limit > 0):
+    if limit is not None and not (_is_real(limit) and limit > 0 and not math.isnan(limit)):
         raise InvalidInputError(f"time_limit must be a positive number of seconds, got {limit!r}")
+    size = options.get("batch_size")
+    if size is not None and not (isinstance(size, int | np.integer)
+                                 and not isinstance(size, bool) and size >= 1):
+        raise InvalidInputError(f"batch_size must be a whole number >= 1, got {size!r}")
+    warm = options.get("warm_start")
+    if warm is not None and not isinstance(warm, bool | np.bool_):
+        raise InvalidInputError(f"warm_start must be True or False, got {warm!r}")
     user = options.get("solver_options")
     if user is not None and not isinstance(user, Mapping):
         raise InvalidInputError(
             f"solver_options must be a dict of the solver's own options, got {user!r}")
+    if user is not None and not all(isinstance(key, str) for key in user):
+        raise InvalidInputError(
+            f"solver_options must be keyed by the solver's option names, got {list(user)!r}")
+
+
+def _is_real(value: object) -> bool:
+    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
+        value, bool)
 
 
 def solver_options(solver: str, accuracy: object = "default",

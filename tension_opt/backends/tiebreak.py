@@ -3,7 +3,10 @@
 An LP optimum is tested for uniqueness through the cone of feasible directions at the
 solution (:func:`lp_optimum_is_unique`). A tie is broken to the minimum 2-norm point
 of the optimal face: by a second QP stage over :func:`optimal_face` where the backend
-takes QPs, exactly on the (at most 2-D) face otherwise (:func:`low_dim_face_solve`).
+takes QPs, exactly otherwise (:func:`face_min_norm`): by enumeration on a face of at
+most two dimensions (:func:`low_dim_face_solve`), as a least-distance program solved
+by non-negative least squares on a larger one (:func:`least_distance_face`), so that
+every backend breaks a tie to the same tensions, rank-deficient robots included.
 """
 
 from __future__ import annotations
@@ -45,7 +48,8 @@ def lp_optimum_is_unique(form: StandardForm, T: NDArray, _square: bool = True) -
     if _square and E.shape[1] == m:
         # Square: a determinant far from zero against the rows' lengths (Hadamard's
         # bound) settles most poses without a singular value decomposition.
-        ratio = np.abs(np.linalg.det(E)) / np.prod(np.linalg.norm(E, axis=2), axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):  # a zero row: in doubt
+            ratio = np.abs(np.linalg.det(E)) / np.prod(np.linalg.norm(E, axis=2), axis=1)
         doubt = np.flatnonzero(~(ratio > 1e-8))
         if not len(doubt):
             return unique
@@ -150,3 +154,65 @@ def low_dim_face_solve(form: StandardForm, T: NDArray) -> NDArray | None:
             good = sel[feasible]
             out[good] = T0[feasible] + np.einsum("nmi,ni->nm", Z[feasible], z[feasible])
     return out
+
+
+def face_min_norm(form: StandardForm, T: NDArray) -> tuple[NDArray, NDArray]:
+    """Minimum-norm points of the optimal faces of LP optima ``T`` (N, m), exactly.
+
+    Faces of at most two dimensions are enumerated (:func:`low_dim_face_solve`), larger
+    ones solved as least-distance programs (:func:`least_distance_face`).
+
+    Returns
+    -------
+    tensions : ndarray, shape (N, m)
+        The tie-broken tensions (N); the vertex ``T`` where no point was found.
+    found : ndarray of bool, shape (N,)
+    """
+    small = low_dim_face_solve(form, T)
+    if small is not None:
+        return small, np.ones(len(T), dtype=bool)
+    out, found = T.copy(), np.zeros(len(T), dtype=bool)
+    for k in range(len(T)):
+        point = least_distance_face(form.subset(slice(k, k + 1)), T[k:k + 1])
+        if point is not None:
+            out[k], found[k] = point, True
+    return out, found
+
+
+def least_distance_face(form: StandardForm, T: NDArray) -> NDArray | None:
+    """Minimum-norm point of the optimal face of one pose's LP optimum ``T`` (1, m).
+
+    With ``Z`` an orthonormal basis of the null space of ``A`` (rank-revealing SVD, so
+    a rank-deficient ``A`` is fine) and ``T0`` the component of ``T`` orthogonal to it,
+    the face's points are ``T0 + Z z`` with ``||T||^2 = ||T0||^2 + ||z||^2``: a
+    least-distance program ``min ||z||  s.t.  M z >= r`` (bounds and the optimal-value
+    row), solved exactly by non-negative least squares (Lawson and Hanson, *Solving
+    Least Squares Problems*, ch. 23). Returns the tensions (m,), or None if rounding
+    left the face empty.
+    """
+    from scipy.optimize import nnls
+
+    face = optimal_face(form, T)
+    s = float(form.scale()[0])
+    _, sv, vt = np.linalg.svd(face.A[0], full_matrices=True)
+    rank = int((sv > 1e-10 * sv[0]).sum()) if sv.size and sv[0] > 0 else 0
+    Z = vt[rank:].T  # (m, d)
+    T0 = T[0] - Z @ (Z.T @ T[0])
+    lb, ub = face.lb[0], face.ub[0]
+    low, high = np.isfinite(lb), np.isfinite(ub)
+    M = [Z[low], -Z[high]]
+    r = [lb[low] - T0[low], T0[high] - ub[high]]
+    if face.G is not None and face.h is not None:
+        M.append(-(face.G[0] @ Z))
+        r.append(face.G[0] @ T0 - face.h[0])
+    Mz, rz = np.concatenate(M), np.concatenate(r) / s  # in units of the typical tension
+    if not len(Mz):
+        return T0
+    E = np.vstack([Mz.T, rz[None, :]])
+    f = np.zeros(Z.shape[1] + 1)
+    f[-1] = 1.0
+    u, _ = nnls(E, f, maxiter=50 * E.shape[1])
+    residual = E @ u - f
+    if not residual[-1] < -1e-12:  # incompatible constraints: the face is empty
+        return None
+    return T0 + Z @ (-residual[:-1] / residual[-1] * s)

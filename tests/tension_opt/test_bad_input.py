@@ -1,0 +1,265 @@
+"""Regression tests of hostile but realistic inputs: each gets the right answer or a
+clear error of the package that names the argument at fault."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import tension_opt as to
+from tension_opt.sampling import random_feasible_poses
+from tension_opt.trajectory import smooth_jointly
+
+STUDY_POSE = [[-29.4, 10.2, 1.5]]
+
+
+@pytest.fixture(scope="module")
+def study() -> to.CableRobot:
+    return to.presets.algae_harvester()
+
+
+def _octagon() -> to.CableRobot:
+    """Eight cables, anchors on a circle at z = 5, attachments on a circle at z = 0: the
+    structure matrix of the centred pose has rank 3 of 6."""
+    angles = np.linspace(0, 2 * np.pi, 8, endpoint=False)
+    ring = np.column_stack([np.cos(angles), np.sin(angles), np.zeros(8)])
+    return to.CableRobot(anchors=5 * ring + [0.0, 0.0, 5.0], attachments=0.5 * ring,
+                         mass=10.0, kind="spatial6")
+
+
+# ------------------------------------------------------------- cables only pull
+def test_a_negative_bound_is_refused_where_the_problem_is_made() -> None:
+    with pytest.raises(to.InvalidInputError, match=r"t_min.*only pull"):
+        to.TensionProblem("min_sum", t_min=-1e5)
+    with pytest.raises(to.InvalidInputError, match="t_max"):
+        to.TensionProblem("min_sum", t_max=-1.0)
+    with pytest.raises(to.InvalidInputError, match="t_min exceeds t_max"):
+        to.TensionProblem("min_sum", t_min=10.0, t_max=5.0)
+
+
+def test_the_study_with_a_negative_bound_never_pushes(study: to.CableRobot) -> None:
+    with pytest.raises(to.InvalidInputError, match="only pull"):
+        to.distribute(study, STUDY_POSE, to.TensionProblem("min_sum", t_min=-1e5))
+
+
+def test_references_are_finite_non_negative_and_for_min_norm_only() -> None:
+    with pytest.raises(to.InvalidInputError, match="reference"):
+        to.TensionProblem("min_norm", reference=[np.nan] * 4)
+    with pytest.raises(to.InvalidInputError, match=r"reference.*only pull"):
+        to.TensionProblem("min_norm", reference=[-1.0] * 4)
+    with pytest.raises(to.InvalidInputError, match="reference"):
+        to.TensionProblem("min_sum", reference=[1.0] * 4)
+
+
+@pytest.mark.parametrize(("field", "value"), [
+    ("weights", 2.0), ("weights", "abc"), ("weights", [1.0, -1.0]), ("smoothing", True),
+    ("smoothing", "1"), ("rate_limit", np.ones((2, 2))), ("tie_break", "yes"),
+    ("t_min", "x"), ("t_max", [np.nan])])
+def test_problem_fields_are_checked_and_named(field: str, value: object) -> None:
+    with pytest.raises(to.InvalidInputError, match=field):
+        to.TensionProblem("min_norm", **{field: value})
+
+
+def test_an_objective_that_overflows_is_an_input_error(study: to.CableRobot) -> None:
+    problem = to.TensionProblem("min_norm", smoothing=1e300)
+    with pytest.raises(to.InvalidInputError, match="smoothing"):
+        to.distribute(study, STUDY_POSE, problem, previous=[1e10] * 4)
+
+
+# -------------------------------------------------------- shapes and coercion
+@pytest.mark.parametrize(("kwargs", "name"), [
+    ({"poses": [[1.0, 2.0, 3.0], [1.0, 2.0]]}, "poses"),
+    ({"poses": "abc"}, "poses"),
+    ({"poses": np.zeros((2, 4))}, "poses"),
+    ({"objective": to.TensionProblem("min_sum", t_min=[1.0, 2.0, 3.0])}, "t_min"),
+    ({"wrench": [[1.0, 2.0], [3.0]]}, "wrench"),
+    ({"wrench": "abc"}, "wrench"),
+    ({"objective": to.TensionProblem("min_norm", smoothing=1.0), "previous": "abc"},
+     "previous"),
+    ({"objective": to.TensionProblem("min_norm", smoothing=1.0),
+      "previous": [[1.0, 2.0], [3.0]]}, "previous"),
+    ({"objective": to.TensionProblem("min_norm", smoothing=1.0), "previous": [1.0, 2.0]},
+     "previous"),
+    ({"objective": to.TensionProblem("min_sum", weights=[1.0, 2.0])}, "weights"),
+    ({"objective": to.TensionProblem("min_norm", reference=[1.0, 2.0])}, "reference"),
+])
+def test_numpy_errors_become_input_errors_naming_the_argument(
+        study: to.CableRobot, kwargs: dict, name: str) -> None:
+    call = {"poses": STUDY_POSE, **kwargs}
+    with pytest.raises(to.InvalidInputError, match=name):
+        to.distribute(study, call.pop("poses"), **call)
+
+
+def test_a_mass_given_as_text_is_named() -> None:
+    with pytest.raises(to.InvalidInputError, match="mass"):
+        to.CableRobot(np.eye(3), np.zeros((3, 3)), mass="10")  # type: ignore[arg-type]
+    with pytest.raises(to.InvalidInputError, match="diameter"):
+        to.CableProperties(diameter=-1.0, linear_mass=1.0)
+
+
+@pytest.mark.parametrize("backend", [None, 3, ["auto"], np.array(["auto", "x"])])
+def test_a_backend_that_is_not_a_name_is_named(study: to.CableRobot, backend: object) -> None:
+    with pytest.raises(to.BackendNotAvailableError, match="backend"):
+        to.distribute(study, STUDY_POSE, backend=backend)  # type: ignore[arg-type]
+
+
+def test_a_robot_that_is_not_a_robot_is_named() -> None:
+    with pytest.raises(to.InvalidInputError, match="robot"):
+        to.distribute("study", STUDY_POSE)  # type: ignore[arg-type]
+
+
+def test_a_pose_too_far_away_overflows_into_an_error(study: to.CableRobot) -> None:
+    with pytest.raises(to.InvalidInputError, match="pose 0"):
+        to.distribute(study, [[1e300, 0.0, 0.0]])
+
+
+# ------------------------------------------------------------ options and backends
+@pytest.mark.parametrize(("options", "words"), [
+    ({"accuracy": "ultra"}, "accuracy.*default.*high"),
+    ({"acuracy": "high"}, r"acuracy.*accuracy"),
+    ({"time_limit": -1.0}, "time_limit"),
+    ({"batch_size": 0}, "batch_size"),
+    ({"warm_start": "no"}, "warm_start"),
+    ({"solver_options": [("eps_abs", 1.0)]}, "solver_options"),
+])
+def test_unknown_or_bad_options_are_errors_listing_the_valid_ones(
+        study: to.CableRobot, options: dict, words: str) -> None:
+    with pytest.raises(to.InvalidInputError, match=words):
+        to.distribute(study, STUDY_POSE, **options)
+
+
+def test_an_unknown_backend_suffix_lists_the_installed_backends(study: to.CableRobot) -> None:
+    with pytest.raises(to.BackendNotAvailableError, match=r"suffix.*installed.*closed_form"):
+        to.distribute(study, STUDY_POSE, backend="closed_form:foo")
+
+
+@pytest.mark.parametrize(("backend", "options", "message"), [
+    ("qpsolvers:osqp", {"eps_abs": -1}, "OSQP_SETTINGS_VALIDATION_ERROR"),
+    ("qpsolvers:osqp", {"eps_abss": 1e-3}, "eps_abss"),
+    ("qpsolvers:daqp", {"eps_abss": 1e-3}, "eps_abss"),
+    ("qpsolvers:piqp", {"eps_abss": 1e-3}, "eps_abss"),
+    ("qpsolvers:highs", {"eps_abss": 1e-3}, "eps_abss"),
+    ("cvxpy:CLARABEL", {"eps_abss": 1e-3}, "eps_abss"),
+    ("cvxpy:OSQP", {"eps_abs": -1}, "OSQP_SETTINGS_VALIDATION_ERROR"),
+    ("cvxpy:DAQP", {"eps_abss": 1e-3}, "eps_abss"),
+    ("scipy:highs", {"eps_abss": 1e-3}, "eps_abss"),
+])
+def test_options_a_solver_rejects_raise_with_its_message(
+        study: to.CableRobot, backend: str, options: dict, message: str) -> None:
+    if backend not in to.available_backends():
+        pytest.skip(f"{backend} is not installed")
+    objective = "min_sum" if backend == "scipy:highs" else "min_norm"
+    with pytest.raises(to.SolverError, match=message):
+        to.distribute(study, STUDY_POSE, objective, backend, solver_options=options)
+
+
+def test_options_a_solver_accepts_still_solve(study: to.CableRobot) -> None:
+    sol = to.distribute(study, STUDY_POSE, "min_norm", "qpsolvers:osqp",
+                        solver_options={"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iter": 100000})
+    assert sol.success.all()
+
+
+def test_a_solver_exception_on_a_pose_keeps_its_message() -> None:
+    from tension_opt.backends.base import RawResult, honest
+
+    raw = RawResult(np.array([[1.0, np.inf]]), np.array(["optimal"]), None)
+    honest(raw)
+    assert raw.status[0] == to.Status.SOLVER_ERROR and np.isnan(raw.tensions).all()
+    assert "non-finite" in raw.extras["errors"][0]
+
+
+# --------------------------------------------------------- answers, not statuses
+def test_empty_batches_are_empty_solutions_on_every_backend(study: to.CableRobot) -> None:
+    for backend in [*to.available_backends(), "auto"]:
+        for objective in ("min_sum", "min_norm"):
+            form = to.TensionProblem(objective).standard_form(study, np.zeros((1, 3)))
+            if backend != "auto" and to.get_backend(backend).unsupported(form):
+                continue
+            sol = to.distribute(study, np.zeros((0, 3)), objective, backend)
+            assert sol.tensions.shape == (0, 4) and sol.status.shape == (0,)
+
+
+def test_a_huge_smoothing_weight_is_solved_by_every_qp_backend(study: to.CableRobot) -> None:
+    poses = random_feasible_poses(study, 3, seed=0)
+    problem = to.TensionProblem("min_norm", smoothing=1e10)
+    exact = to.distribute(study, poses, problem, "closed_form")
+    assert exact.success.all()
+    for backend in to.available_backends():
+        if backend == "closed_form" or to.get_backend(backend).unsupported(exact.form):
+            continue
+        sol = to.distribute(study, poses, problem, backend, accuracy="high")
+        # Honest at least: never infeasible or failed on these feasible poses.
+        assert not np.isin(sol.status, ["infeasible", "solver_error", "max_iter"]).any(), (
+            backend, sol.status)
+        if backend in ("qpsolvers:daqp", "qpsolvers:quadprog", "qpsolvers:proxqp",
+                       "qpsolvers:clarabel", "cvxpy:CLARABEL"):
+            assert sol.success.all(), (backend, sol.status)
+            np.testing.assert_allclose(sol.tensions, exact.tensions, rtol=1e-6,
+                                       err_msg=backend)
+
+
+def test_a_rank_deficient_robot_is_answered_the_same_by_every_backend() -> None:
+    robot = _octagon()
+    auto = to.distribute(robot, np.zeros(6), "min_sum")
+    assert auto.success.all()
+    assert auto.extras["fallback"] == {"qpsolvers:daqp": [0]}  # the closed form cannot
+    np.testing.assert_allclose(auto.tensions, 16.4975064873, rtol=1e-8)
+    for backend in ("qpsolvers:daqp", "scipy:highs", "cvxpy:CLARABEL", "qpsolvers:highs"):
+        if backend not in to.available_backends():
+            continue
+        sol = to.distribute(robot, np.zeros(6), "min_sum", backend, accuracy="high")
+        assert sol.success.all() and not sol.unique.any()
+        np.testing.assert_allclose(sol.tensions, auto.tensions, rtol=1e-6, err_msg=backend)
+
+
+def test_a_large_optimal_face_is_broken_exactly_by_an_lp_only_backend() -> None:
+    # Nine cables on a point mass: a 6-D null space; min-max ties on a large face.
+    angles = np.linspace(0, 2 * np.pi, 9, endpoint=False)
+    anchors = np.column_stack([10 * np.cos(angles), 10 * np.sin(angles), np.full(9, 5.0)])
+    robot = to.CableRobot(anchors, np.zeros((9, 3)), mass=10.0)
+    qp = to.distribute(robot, [0.0, 0.0, 0.0], "min_sum", "qpsolvers:daqp")
+    lp = to.distribute(robot, [0.0, 0.0, 0.0], "min_sum", "scipy:highs")
+    assert "tie_break" not in lp.extras
+    np.testing.assert_allclose(lp.tensions, qp.tensions, rtol=1e-7)
+
+
+def test_optimal_never_comes_with_non_finite_tensions(study: to.CableRobot) -> None:
+    form = to.TensionProblem("min_sum").standard_form(study, STUDY_POSE * 2)
+    sol = to.TensionSolution.from_form(form, np.array([[np.nan] * 4, [np.inf] * 4]),
+                                       ["optimal", "inaccurate"], backend="x", solver="x")
+    assert (sol.status == to.Status.SOLVER_ERROR).all() and np.isnan(sol.tensions).all()
+
+
+def test_a_wrench_near_the_float_limit_is_solved_or_refused_honestly(
+        study: to.CableRobot) -> None:
+    for backend in ("qpsolvers:daqp", "cvxpy:CLARABEL", "closed_form"):
+        sol = to.distribute(study, STUDY_POSE, "centered" if False else "min_norm", backend,
+                            wrench=[0.0, 0.0, -1e300])
+        ok = sol.success
+        assert np.isfinite(sol.tensions[ok]).all()
+        assert (sol.residual[ok] <= 1e-6 * 1e300).all()
+
+
+def test_smooth_jointly_checks_its_arguments(study: to.CableRobot) -> None:
+    poses = random_feasible_poses(study, 3, seed=1)
+    with pytest.raises(to.InvalidInputError, match="weight"):
+        smooth_jointly(study, poses, "min_norm", weight="1")  # type: ignore[arg-type]
+    with pytest.raises(to.InvalidInputError, match="acuracy"):
+        smooth_jointly(study, poses, "min_norm", acuracy="high")
+    with pytest.raises(to.InvalidInputError, match="backend"):
+        smooth_jointly(study, poses, "min_norm", backend=None)  # type: ignore[arg-type]
+    empty = smooth_jointly(study, np.zeros((0, 3)), "min_norm")
+    assert empty.tensions.shape == (0, 4)
+    huge = smooth_jointly(study, poses, "min_norm", weight=1e10)
+    assert huge.success.all()
+
+
+def test_solver_warnings_stay_quiet_and_filters_untouched(study: to.CableRobot) -> None:
+    before = list(warnings.filters)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        to.distribute(study, [[0.0, 0.0, 100.0]], "min_norm", "qpsolvers:osqp")
+    assert not [w for w in caught if "qpsolvers" in str(w.filename)]
+    assert warnings.filters == before
