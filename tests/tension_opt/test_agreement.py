@@ -83,7 +83,10 @@ def test_backend_agrees_with_reference(case, objective, backend):
     allowed = KNOWN_FAILURES.get((backend.split(":")[-1].upper(), kind), 0.0)
     assert (~ok).mean() <= allowed, f"{(~ok).sum()} poses failed"
     # A failed pose says so and carries no tensions: no silent wrong answer.
-    assert np.isnan(sol.tensions[~ok]).all()
+    # An inaccurate pose keeps its tensions under that label (OSQP near its tolerance on
+    # CoGiRo's min-max LP, now and then); every other failure carries none.
+    failed = ~ok & (sol.status != to.Status.INACCURATE)
+    assert np.isnan(sol.tensions[failed]).all()
     rel = np.abs(sol.tensions - ref.tensions)[ok].max(axis=1) / np.abs(ref.tensions)[ok].max(
         axis=1)
     assert rel.max() < REL_TOL, f"worst pose {rel.argmax()}: {rel.max():.2e}"
