@@ -137,8 +137,9 @@ def test_two_command_line_runs_at_once_lose_nothing(tmp_path: Path) -> None:
     selections = [(["min_sum", "min_norm", "pinv"], ["closed_form", "qpsolvers:daqp"]),
                   (["min_sum", "min_norm", "pinv"], ["scipy:highs", "cvxpy:CLARABEL"])]
     expected = set().union(*(_cells(*s) for s in selections))
-    runs = [_benchmarks("run", *_selection(*s), "--results", str(tmp_path), "--no-progress")
-            for s in selections]
+    # A generous per-cell budget: a loaded machine must not turn a cell into time_limit.
+    runs = [_benchmarks("run", *_selection(*s), "--results", str(tmp_path), "--no-progress",
+                        "--time-limit", "120") for s in selections]
     for run in runs:
         _, err = run.communicate(timeout=300)
         assert run.returncode == 0, err
