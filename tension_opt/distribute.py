@@ -99,7 +99,7 @@ def _solve(backend: Backend, form: StandardForm, options: dict[str, Any],
     method does not cover, such as a rank-deficient structure matrix in the closed
     form) are solved again by the next able backend of ``AUTO_ORDER``."""
     raw = backend.solve(form, **options)
-    if not auto:
+    if not auto or not (raw.status == Status.SOLVER_ERROR).any():
         return raw
     order = list(AUTO_ORDER)
     later = order[order.index(backend.name) + 1:] if backend.name in order else order

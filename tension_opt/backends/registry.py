@@ -41,7 +41,9 @@ LP_ORDER: tuple[str, ...] = (
 )
 
 _INSTANCES: dict[str, Backend] = {}
-_LOCK = threading.Lock()
+_AVAILABLE: list[str] = []
+# Re-entrant: get_backend lists the installed backends in its error messages.
+_LOCK = threading.RLock()
 
 
 def _family(prefix: str) -> ModuleType:
@@ -49,11 +51,16 @@ def _family(prefix: str) -> ModuleType:
 
 
 def available_backends() -> list[str]:
-    """Names of every installed backend and solver, e.g. ``"qpsolvers:daqp"``."""
-    names: list[str] = []
-    for prefix in FAMILIES:
-        names.extend(_family(prefix).available())
-    return names
+    """Names of every installed backend and solver, e.g. ``"qpsolvers:daqp"``.
+
+    Found once per process (asking cvxpy for its solvers tries to import every solver
+    it knows, which cost most of a one-pose :func:`~tension_opt.distribute`).
+    """
+    with _LOCK:
+        if not _AVAILABLE:
+            for prefix in FAMILIES:
+                _AVAILABLE.extend(_family(prefix).available())
+        return list(_AVAILABLE)
 
 
 def get_backend(name: str) -> Backend:
