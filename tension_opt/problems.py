@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from tension_opt.checks import is_number
 from tension_opt.errors import InvalidInputError
 from tension_opt.nullspace import typical_tension
 from tension_opt.objectives import Objective, get_objective
@@ -81,7 +82,7 @@ class TensionProblem:
             object.__setattr__(self, "weights", weights)
         if self.reference is not None:
             object.__setattr__(self, "reference", _check_reference(self.reference, objective))
-        if (not _is_number(self.smoothing) or not np.isfinite(self.smoothing)
+        if (not is_number(self.smoothing) or not np.isfinite(self.smoothing)
                 or self.smoothing < 0):
             raise InvalidInputError(f"smoothing must be a number >= 0, got {self.smoothing!r}")
         if self.rate_limit is not None:
@@ -252,11 +253,6 @@ def _as_array(name: str, value: ArrayLike) -> NDArray:
     except (TypeError, ValueError):
         raise InvalidInputError(
             f"{name} must be a number or an array of numbers, got {value!r}"[:300]) from None
-
-
-def _is_number(value: object) -> bool:
-    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
-        value, bool)
 
 
 def _check_bound(name: str, value: ArrayLike) -> NDArray | float:

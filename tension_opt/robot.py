@@ -23,6 +23,14 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from tension_opt.checks import (
+    as_finite,
+    as_float_array,
+    check_positive,
+    inertia_tensor,
+    is_number,
+    per_cable,
+)
 from tension_opt.errors import InvalidInputError
 from tension_opt.kinds import MotionPattern, get_kind
 from tension_opt.status import STATUS_DTYPE, Status
@@ -49,12 +57,12 @@ class CableProperties:
     EA: float = float("inf")
 
     def __post_init__(self) -> None:
-        _check_positive("cable diameter", self.diameter)
-        if not _is_number(self.linear_mass) or not np.isfinite(self.linear_mass) or (
+        check_positive("cable diameter", self.diameter)
+        if not is_number(self.linear_mass) or not np.isfinite(self.linear_mass) or (
                 self.linear_mass < 0):
             raise InvalidInputError(
                 f"cable linear_mass must be a finite number >= 0 (kg/m), got {self.linear_mass!r}")
-        if not _is_number(self.EA) or np.isnan(self.EA) or self.EA <= 0:
+        if not is_number(self.EA) or np.isnan(self.EA) or self.EA <= 0:
             raise InvalidInputError(
                 f"cable EA must be a positive number or inf (N), got {self.EA!r}")
 
@@ -63,8 +71,8 @@ class CableProperties:
         cls, diameter: float, density: float, EA: float = float("inf")
     ) -> CableProperties:
         """Cable of a solid circular section: ``linear_mass = density * pi/4 * d^2``."""
-        _check_positive("cable diameter", diameter)
-        _check_positive("cable density", density)
+        check_positive("cable diameter", diameter)
+        check_positive("cable density", density)
         return cls(diameter, density * np.pi / 4.0 * diameter**2, EA)
 
     def weight_per_length(self, g: float = 9.81) -> float:
@@ -72,52 +80,16 @@ class CableProperties:
         return self.linear_mass * g
 
 
-def _check_positive(name: str, value: float) -> None:
-    if not _is_number(value) or not np.isfinite(value) or value <= 0:
-        raise InvalidInputError(f"{name} must be a positive finite number, got {value!r}")
+def box_inertia(mass: float, attachments: ArrayLike) -> NDArray:
+    """Inertia tensor (kg m^2, shape (3, 3)) of a uniform solid box of ``mass`` (kg)
+    whose edges span the attachment points (m, shape (m, 3)) along each platform axis.
 
-
-def _is_number(value: object) -> bool:
-    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
-        value, bool)
-
-
-def as_float_array(name: str, value: ArrayLike) -> NDArray:
-    """``value`` as a float array, or the package's error naming the argument.
-
-    Raises
-    ------
-    InvalidInputError
-        If numpy cannot make a float array of it (strings, ragged nesting, None).
+    ``mass / 12 * diag(b^2 + c^2, a^2 + c^2, a^2 + b^2)`` for edges ``a, b, c``; zero
+    when the attachments coincide (a point mass).
     """
-    if value is None or isinstance(value, str | bytes):
-        raise InvalidInputError(f"{name} must be numbers, got {value!r}")
-    try:
-        return np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInputError(
-            f"{name} must be a rectangular array of numbers, got {value!r}"[:300]) from None
-
-
-def _as_finite(name: str, value: ArrayLike, shape: tuple[int, ...] | None = None) -> NDArray:
-    arr = as_float_array(name, value)
-    if shape is not None and arr.shape != shape:
-        raise InvalidInputError(f"{name} must have shape {shape}, got {arr.shape}")
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        idx = tuple(int(i) for i in np.argwhere(bad)[0])
-        raise InvalidInputError(f"{name} has a non-finite value {arr[idx]!r} at index {idx}")
-    return arr
-
-
-def _per_cable(name: str, value: ArrayLike, m: int) -> NDArray:
-    arr = as_float_array(name, value)
-    try:
-        return np.broadcast_to(arr, (m,)).copy()
-    except ValueError:
-        raise InvalidInputError(
-            f"{name} must be a number or have shape ({m},) (one per cable), got "
-            f"shape {arr.shape}") from None
+    points = np.asarray(attachments, dtype=float).reshape(-1, 3)
+    a, b, c = np.ptp(points, axis=0)
+    return float(mass) / 12.0 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
 
 
 @dataclass(frozen=True, eq=False)
@@ -148,6 +120,11 @@ class CableRobot:
         A central pose in the workspace, used as the start of forward kinematics.
     name : str
         Label used in tables and plots.
+    inertia : array_like, shape (3, 3), optional
+        Inertia tensor of the platform about its centre of mass, in the platform frame
+        (kg m^2), symmetric positive semi-definite. By default that of a uniform solid
+        box spanning the attachment points (:func:`box_inertia`); zero for a point mass.
+        Used by the dynamics (:mod:`tension_opt.dynamics`) and the natural frequencies.
     """
 
     anchors: NDArray
@@ -161,29 +138,30 @@ class CableRobot:
     cable: CableProperties | None = None
     home: NDArray | None = None
     name: str = "cable robot"
+    inertia: NDArray | None = None
     pattern: MotionPattern = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         pattern = get_kind(self.kind)
         object.__setattr__(self, "pattern", pattern)
         object.__setattr__(self, "kind", pattern.name)
-        anchors = _as_finite("anchors", self.anchors)
+        anchors = as_finite("anchors", self.anchors)
         if anchors.ndim != 2 or anchors.shape[1] != 3 or anchors.shape[0] < 1:
             raise InvalidInputError(f"anchors must have shape (m, 3), got {anchors.shape}")
         m = anchors.shape[0]
-        attachments = _as_finite("attachments", self.attachments, (m, 3))
-        _check_positive("mass", self.mass)
-        if not _is_number(self.g) or not np.isfinite(self.g) or self.g < 0:
+        attachments = as_finite("attachments", self.attachments, (m, 3))
+        check_positive("mass", self.mass)
+        if not is_number(self.g) or not np.isfinite(self.g) or self.g < 0:
             raise InvalidInputError(f"g must be finite and >= 0, got {self.g!r}")
-        com = _as_finite("com", self.com, (3,))
+        com = as_finite("com", self.com, (3,))
         if not np.isfinite(self.mass * self.g):
             raise InvalidInputError(
                 f"the platform's weight mass * g = {self.mass!r} * {self.g!r} overflows")
         if self.cable is not None and not isinstance(self.cable, CableProperties):
             raise InvalidInputError(
                 f"cable must be CableProperties or None, got {type(self.cable).__name__}")
-        t_min = _per_cable("t_min", self.t_min, m)
-        t_max = _per_cable("t_max", self.t_max, m)
+        t_min = per_cable("t_min", self.t_min, m)
+        t_max = per_cable("t_max", self.t_max, m)
         if np.isnan(t_min).any() or np.isinf(t_min).any():
             raise InvalidInputError(f"t_min must be finite, got {t_min}")
         if np.isnan(t_max).any() or np.isneginf(t_max).any():
@@ -203,14 +181,17 @@ class CableRobot:
                 f"anchors {i} and {j} coincide at {anchors[i].tolist()}: each cable needs "
                 "its own drawing point"
             )
-        home = None if self.home is None else _as_finite("home", self.home, (self.dof,))
+        home = None if self.home is None else as_finite("home", self.home, (self.dof,))
+        inertia = (box_inertia(self.mass, attachments) if self.inertia is None
+                   else inertia_tensor(self.inertia))
         object.__setattr__(self, "anchors", anchors)
         object.__setattr__(self, "attachments", attachments)
         object.__setattr__(self, "com", com)
         object.__setattr__(self, "t_min", t_min)
         object.__setattr__(self, "t_max", t_max)
         object.__setattr__(self, "home", home)
-        for arr in (anchors, attachments, com, t_min, t_max):
+        object.__setattr__(self, "inertia", inertia)
+        for arr in (anchors, attachments, com, t_min, t_max, inertia):
             arr.setflags(write=False)
 
     # ------------------------------------------------------------------ sizes
@@ -257,7 +238,7 @@ class CableRobot:
                 f"poses of a {self.kind} robot must have shape (N, {self.dof}), got "
                 f"{np.shape(poses)}"
             )
-        return _as_finite("poses", arr)
+        return as_finite("poses", arr)
 
     def frames(self, poses: NDArray) -> tuple[NDArray, NDArray]:
         """Platform position (N, 3) and rotation matrices (N, 3, 3) of validated poses (N, n)."""
@@ -388,7 +369,7 @@ class CableRobot:
         p = self.as_poses(poses)
         b = -self.gravity_wrench(p)
         if wrench is not None:
-            w = _as_finite("wrench", wrench)
+            w = as_finite("wrench", wrench)
             try:
                 w = np.broadcast_to(w, b.shape)
             except ValueError:
@@ -431,7 +412,7 @@ class CableRobot:
             (N,), ``status`` (N,) among ``"converged"``, ``"inconsistent"``,
             ``"not_converged"``.
         """
-        L = _as_finite("lengths", lengths)
+        L = as_finite("lengths", lengths)
         if L.ndim == 1:
             L = L[None]
         if L.ndim != 2 or L.shape[1] != self.m:
@@ -444,7 +425,7 @@ class CableRobot:
                 max_iter < 0):
             raise InvalidInputError(f"max_iter must be a whole number >= 0, got {max_iter!r}")
         for name, value in (("tol", tol), ("consistency_tol", consistency_tol)):
-            if not _is_number(value) or not np.isfinite(value) or value < 0:
+            if not is_number(value) or not np.isfinite(value) or value < 0:
                 raise InvalidInputError(f"{name} must be a finite number >= 0, got {value!r}")
         N = L.shape[0]
         if initial_poses is None:

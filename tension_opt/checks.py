@@ -1,0 +1,82 @@
+"""Checks of user input where it enters the package.
+
+Each check returns the value as a float array or raises
+:class:`~tension_opt.errors.InvalidInputError` naming the argument and the fix.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from tension_opt.errors import InvalidInputError
+
+
+def check_positive(name: str, value: float) -> None:
+    """Raise the package's error unless ``value`` is a positive finite number."""
+    if not is_number(value) or not np.isfinite(value) or value <= 0:
+        raise InvalidInputError(f"{name} must be a positive finite number, got {value!r}")
+
+
+def is_number(value: object) -> bool:
+    """Whether ``value`` is a real scalar (not a bool)."""
+    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
+        value, bool)
+
+
+def as_float_array(name: str, value: ArrayLike) -> NDArray:
+    """``value`` as a float array, or the package's error naming the argument.
+
+    Raises
+    ------
+    InvalidInputError
+        If numpy cannot make a float array of it (strings, ragged nesting, None).
+    """
+    if value is None or isinstance(value, str | bytes):
+        raise InvalidInputError(f"{name} must be numbers, got {value!r}")
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInputError(
+            f"{name} must be a rectangular array of numbers, got {value!r}"[:300]) from None
+
+
+def as_finite(name: str, value: ArrayLike, shape: tuple[int, ...] | None = None) -> NDArray:
+    """``value`` as a finite float array (of ``shape`` if given), or the package's error
+    naming the argument and the first bad entry."""
+    arr = as_float_array(name, value)
+    if shape is not None and arr.shape != shape:
+        raise InvalidInputError(f"{name} must have shape {shape}, got {arr.shape}")
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        idx = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise InvalidInputError(f"{name} has a non-finite value {arr[idx]!r} at index {idx}")
+    return arr
+
+
+def per_cable(name: str, value: ArrayLike, m: int) -> NDArray:
+    """A scalar or per-cable ``value`` as an array of shape (m,)."""
+    arr = as_float_array(name, value)
+    try:
+        return np.broadcast_to(arr, (m,)).copy()
+    except ValueError:
+        raise InvalidInputError(
+            f"{name} must be a number or have shape ({m},) (one per cable), got "
+            f"shape {arr.shape}") from None
+
+
+
+def inertia_tensor(value: ArrayLike) -> NDArray:
+    """A (3, 3) inertia tensor (kg m^2), checked symmetric and positive semi-definite."""
+    inertia = as_finite("inertia", value, (3, 3))
+    if not np.allclose(inertia, inertia.T, rtol=1e-9, atol=1e-12 * np.abs(inertia).max()):
+        raise InvalidInputError(
+            f"inertia must be symmetric, got {inertia.tolist()}; give the tensor about the "
+            "centre of mass in the platform frame")
+    inertia = 0.5 * (inertia + inertia.T)
+    smallest = float(np.linalg.eigvalsh(inertia)[0])
+    if smallest < -1e-12 * max(1.0, np.abs(inertia).max()):
+        raise InvalidInputError(
+            f"inertia must be positive semi-definite (smallest eigenvalue {smallest:g} "
+            "kg m^2); check the signs of the products of inertia")
+    return inertia
