@@ -5,12 +5,14 @@ norm, pseudo-inverse, min-max, centred, smoothed), solved by exact closed forms,
 cvxpy, qpsolvers or scipy/HiGHS, over batches of poses.
 """
 
-from tension_opt import presets, workspace
+from tension_opt import caspr, presets, workspace
 from tension_opt.backends import available_backends, get_backend
+from tension_opt.caspr import load_caspr
 from tension_opt.distribute import distribute
 from tension_opt.errors import (
     BackendNotAvailableError,
     InvalidInputError,
+    RobotFileError,
     SolverError,
     TensionOptError,
     UnsupportedProblemError,
@@ -29,6 +31,7 @@ __all__ = [
     "CableRobot",
     "InvalidInputError",
     "Objective",
+    "RobotFileError",
     "SolverError",
     "Status",
     "TensionOptError",
@@ -38,8 +41,10 @@ __all__ = [
     "WorkspaceResult",
     "available_backends",
     "capacity_margin",
+    "caspr",
     "distribute",
     "get_backend",
+    "load_caspr",
     "presets",
     "workspace",
     "workspace_grid",

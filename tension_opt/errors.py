@@ -26,3 +26,18 @@ class UnsupportedProblemError(TensionOptError):
 
 class SolverError(TensionOptError):
     """A solver failed in a way that cannot be reported as a per-pose status."""
+
+
+class RobotFileError(InvalidInputError):
+    """A robot description file (YAML, JSON or a CASPR model) does not describe a robot.
+
+    The message names the file, each bad field (e.g. ``cable.EA``), its line where known,
+    and the fix. ``path`` is the file; ``problems`` holds ``(field, line, message)``
+    tuples, ``line`` 0 where unknown.
+    """
+
+    def __init__(self, message: str, path: str = "",
+                 problems: tuple[tuple[str, int, str], ...] = ()) -> None:
+        super().__init__(message)
+        self.path = path
+        self.problems = problems

@@ -1,9 +1,12 @@
-"""Preset robots: the reference algae-harvesting robot and published CDPR geometries."""
+"""Preset robots: the reference algae-harvesting robot and published CDPR geometries.
+
+Each preset is a robot description file in ``tension_opt/data/`` (YAML, the format of
+:mod:`tension_opt.robot_files`), read by :meth:`CableRobot.from_file`; the files also
+say where their numbers come from.
+"""
 
 from __future__ import annotations
 
-import json
-from functools import cache
 from importlib import resources
 from typing import Any
 
@@ -33,7 +36,9 @@ def algae_harvester(**overrides: Any) -> CableRobot:
 
     Four towers of height ``tower_height`` stand ``offset_x``/``offset_y`` outside the
     corners of a ``pond_length`` (x) by ``pond_width`` (y) pond; base frame at the
-    centre of the pond surface, z up. The end-effector is a point mass.
+    centre of the pond surface, z up. The end-effector is a point mass. Without
+    overrides the robot is read from ``data/algae_harvester.yaml``; with overrides it
+    is built from the study's parameters (the same numbers at the defaults).
 
     Parameters
     ----------
@@ -49,6 +54,14 @@ def algae_harvester(**overrides: Any) -> CableRobot:
     CableRobot
         Cables ordered as in the study: P1 = (-,-), P2 = (-,+), P3 = (+,+), P4 = (+,-).
     """
+    if not overrides:
+        return _from_data("algae_harvester")
+    return algae_harvester_from_parameters(**overrides)
+
+
+def algae_harvester_from_parameters(**overrides: Any) -> CableRobot:
+    """The algae-harvesting robot built from the study's parameters (see
+    :func:`algae_harvester`, which reads the defaults from its file)."""
     unknown = set(overrides) - set(_ALGAE_DEFAULTS)
     if unknown:
         raise InvalidInputError(
@@ -79,44 +92,24 @@ def algae_harvester(**overrides: Any) -> CableRobot:
     )
 
 
-@cache
-def _load(name: str) -> dict[str, Any]:
-    text = resources.files("tension_opt").joinpath("data", f"{name}.json").read_text()
-    return json.loads(text)
-
-
-def _published(name: str, kind: str, home: list[float], cable: CableProperties | None,
-               g: float = 9.81) -> CableRobot:
-    data = _load(name)
-    return CableRobot(
-        anchors=np.array(data["anchors"]),
-        attachments=np.array(data["attachments"]),
-        mass=data["mass"],
-        kind=kind,  # type: ignore[arg-type]
-        com=np.array(data["com"]),
-        g=g,
-        t_min=data["f_min"],
-        t_max=data["f_max"],
-        cable=cable,
-        home=np.array(home),
-        name=data["name"],
-    )
+def _from_data(name: str) -> CableRobot:
+    """The preset robot of ``data/<name>.yaml``."""
+    with resources.as_file(resources.files("tension_opt") / "data" / f"{name}.yaml") as path:
+        return CableRobot.from_file(path)
 
 
 def cogiro() -> CableRobot:
     """CoGiRo: 8 cables, 6 DOF, cable-suspended, about 15 x 11 x 6 m (100..5000 N).
 
-    Home pose (0, 0, 2 m, no rotation), as in CASPR's model.
+    Home pose (0, 0, 2 m, no rotation), as in CASPR's model; 4 mm steel cable,
+    0.064 kg/m, EA from the 8.2e-6 m^2 section at ~100 GPa.
     """
-    # 4 mm steel cable, 0.064 kg/m; EA from the 8.2e-6 m^2 section at ~100 GPa.
-    return _published("cogiro", "spatial6", [0, 0, 2.0, 0, 0, 0],
-                      CableProperties(0.004, 0.064, 8.2051e-6 * 100e9))
+    return _from_data("cogiro")
 
 
 def ipanema3() -> CableRobot:
     """IPAnema 3: 8 cables, 6 DOF, crossed layout, about 17 x 11 x 3.8 m (100..3000 N)."""
-    return _published("ipanema3", "spatial6", [0, 0, 1.3, 0, 0, 0],
-                      CableProperties.from_density(0.006, 980.0))
+    return _from_data("ipanema3")
 
 
 def kntu_planar() -> CableRobot:
@@ -124,14 +117,15 @@ def kntu_planar() -> CableRobot:
 
     Its lower tension bound 0.001 N is a numerical placeholder of the source data.
     """
-    return _published("kntu_planar", "planar3", [0, 0, 0], None, g=0.0)
+    return _from_data("kntu_planar")
 
 
 def point_xz_4cable() -> CableRobot:
     """Planar point mass in the xz plane with 4 cables, gravity in the plane (5..50 N)."""
-    return _published("point_xz_4cable", "planar_point2", [0, 0], None)
+    return _from_data("point_xz_4cable")
 
 
+#: The published robots (every preset but the reference study's), by file name.
 PUBLISHED = {
     "cogiro": cogiro,
     "ipanema3": ipanema3,

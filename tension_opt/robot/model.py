@@ -17,6 +17,7 @@ about the platform reference point ``p``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from os import PathLike
 from typing import Literal
 
 import numpy as np
@@ -223,6 +224,29 @@ class CableRobot:
     def with_(self, **changes: object) -> CableRobot:
         """Copy of the robot with some fields replaced (validated again)."""
         return replace(self, **changes)  # type: ignore[arg-type]
+
+    # ------------------------------------------------------------------ files
+    @classmethod
+    def from_file(cls, path: str | PathLike[str]) -> CableRobot:
+        """The robot described in a YAML (``.yaml``/``.yml``) or JSON (``.json``) file.
+
+        The format is that of :mod:`tension_opt.robot_files` (``docs/robot_files.md``).
+
+        Raises
+        ------
+        RobotFileError
+            Naming each bad field, its line in the file and the fix.
+        """
+        from tension_opt import robot_files  # pydantic and yaml load only when needed
+
+        return robot_files.read_robot_file(path, cls, CableProperties)
+
+    def to_file(self, path: str | PathLike[str]) -> None:
+        """Write the robot as YAML or JSON (by the suffix of ``path``); :meth:`from_file`
+        reads it back bit for bit."""
+        from tension_opt import robot_files
+
+        robot_files.write_robot_file(path, self)
 
     # ------------------------------------------------------------------ poses
     def as_poses(self, poses: ArrayLike) -> NDArray:

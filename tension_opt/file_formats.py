@@ -1,0 +1,180 @@
+"""The text side of robot files: YAML and JSON, line numbers, and file errors.
+
+:mod:`tension_opt.robot_files` holds the schema; this module turns a file's text into
+plain data and back, finds the line of each field for error messages, and builds
+:class:`~tension_opt.errors.RobotFileError`. YAML is read with PyYAML's safe loader in
+a YAML 1.2 flavour (``1e5`` is a number) that refuses duplicate keys; floats are
+written with Python's shortest round-trip ``repr`` in both formats.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from os import PathLike
+from pathlib import Path
+from typing import Any, NoReturn
+
+import yaml
+
+from tension_opt.errors import RobotFileError
+
+__all__ = ["SUFFIXES", "checked_path", "file_error", "json_text", "line_map", "parse_text",
+           "yaml_text"]
+
+#: File name suffixes and their formats.
+SUFFIXES = {".yaml": "yaml", ".yml": "yaml", ".json": "json"}
+_SHOWN_PROBLEMS = 10
+
+Problem = tuple[str, int, str]
+"""(field path, line (0 if unknown), what is wrong and the fix)."""
+
+
+def file_error(path: str | PathLike[str], problems: list[Problem]) -> RobotFileError:
+    """The error of a file with these problems, one line each (the first ten shown)."""
+    shown = [f"  {f'line {line}: ' if line else ''}{field}: {text}"
+             for field, line, text in problems[:_SHOWN_PROBLEMS]]
+    if len(problems) > _SHOWN_PROBLEMS:
+        shown.append(f"  ... and {len(problems) - _SHOWN_PROBLEMS} more")
+    return RobotFileError(f"robot file {path} is not valid:\n" + "\n".join(shown),
+                          str(path), tuple(problems))
+
+
+def checked_path(path: str | PathLike[str]) -> Path:
+    """``path`` as a Path, or the file error if its suffix names no format."""
+    file = Path(path)
+    if file.suffix.lower() not in SUFFIXES:
+        raise RobotFileError(
+            f"robot file {file}: unknown suffix {file.suffix!r}; name it .yaml, .yml or "
+            ".json", str(file))
+    return file
+
+
+# ------------------------------------------------------------------ YAML dialect
+# PyYAML reads YAML 1.1, where ``1e5`` (no dot) is text; these files follow YAML 1.2
+# and read it as a number. The dumper knows the same rule, so it quotes such text.
+_FLOAT_12 = re.compile(r"^[-+]?(?:[0-9][0-9_]*\.?[0-9_]*|\.[0-9_]+)[eE][-+]?[0-9]+$")
+
+
+class _Loader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]
+    """Safe YAML loader that reads ``1e5`` as a float and refuses duplicate keys."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict:
+        seen: set[Any] = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            try:
+                duplicate = key in seen
+                seen.add(key)
+            except TypeError:  # an unhashable key: the base class reports it
+                continue
+            if duplicate:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"duplicate key {key!r}: give each field once",
+                    key_node.start_mark)
+        return super().construct_mapping(node, deep=deep)
+
+
+class _Dumper(getattr(yaml, "CSafeDumper", yaml.SafeDumper)):  # type: ignore[misc]
+    """Safe YAML dumper whose text quoting matches :class:`_Loader`."""
+
+
+for _cls in (_Loader, _Dumper):
+    _cls.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT_12,
+                               list("-+0123456789."))
+
+
+def line_map(text: str) -> dict[tuple[str | int, ...], int]:
+    """Line (1-based) of every field path in a YAML or JSON text; empty if unparsable.
+
+    A mapping member's line is that of its key, a list item's that of its start.
+    """
+    try:
+        root = yaml.compose(text, Loader=_Loader)
+    except yaml.YAMLError:
+        return {}
+    if root is None:
+        return {}
+    lines: dict[tuple[str | int, ...], int] = {(): root.start_mark.line + 1}
+    stack: list[tuple[yaml.Node, tuple[str | int, ...]]] = [(root, ())]
+    while stack:
+        node, path = stack.pop()
+        if isinstance(node, yaml.MappingNode):
+            children = [((*path, key.value), key, value) for key, value in node.value]
+        elif isinstance(node, yaml.SequenceNode):
+            children = [((*path, i), item, item) for i, item in enumerate(node.value)]
+        else:
+            continue
+        for child, marked, value in children:
+            lines.setdefault(child, marked.start_mark.line + 1)
+            stack.append((value, child))
+    return lines
+
+
+# ------------------------------------------------------------------ reading
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    keys = [key for key, _ in pairs]
+    for key in keys:
+        if keys.count(key) > 1:
+            raise ValueError(f"duplicate key {key!r}: give each field once")
+    return dict(pairs)
+
+
+def _syntax_error(path: Path, line: int, message: str) -> NoReturn:
+    raise file_error(path, [("(syntax)", line, message)])
+
+
+def parse_text(path: Path, text: str) -> Any:
+    """The data of a YAML or JSON text (by the suffix of ``path``).
+
+    Raises
+    ------
+    RobotFileError
+        For a syntax error or a duplicate key, with its line.
+    """
+    if SUFFIXES[path.suffix.lower()] == "json":
+        try:
+            return json.loads(text, object_pairs_hook=_unique_keys)
+        except json.JSONDecodeError as error:
+            _syntax_error(path, error.lineno, error.msg)
+        except ValueError as error:
+            _syntax_error(path, 0, str(error))
+    try:
+        return yaml.load(text, Loader=_Loader)  # _Loader derives from the safe loader
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        problem = getattr(error, "problem", None) or str(error)
+        _syntax_error(path, 0 if mark is None else mark.line + 1, str(problem))
+
+
+# ------------------------------------------------------------------ writing
+def _json_ready(value: Any) -> Any:
+    """Infinite floats as the text ``"inf"`` (JSON has no infinity)."""
+    if isinstance(value, dict):
+        return {key: _json_ready(v) for key, v in value.items()}
+    if isinstance(value, list):
+        return [_json_ready(v) for v in value]
+    if isinstance(value, float) and math.isinf(value):
+        return "inf" if value > 0 else "-inf"
+    return value
+
+
+def json_text(document: dict[str, Any]) -> str:
+    """Compact, diff-friendly JSON: one field per line, one matrix row per line."""
+    fields = []
+    for key, value in _json_ready(document).items():
+        if isinstance(value, list) and value and isinstance(value[0], list):
+            rows = ",\n    ".join(json.dumps(row, allow_nan=False) for row in value)
+            text = f"[\n    {rows}\n  ]"
+        else:
+            text = json.dumps(value, allow_nan=False, ensure_ascii=False)
+        fields.append(f"  {json.dumps(key)}: {text}")
+    return "{\n" + ",\n".join(fields) + "\n}\n"
+
+
+def yaml_text(document: dict[str, Any], header: str = "") -> str:
+    """YAML in field order, matrix rows in flow style, ``header`` lines as comments."""
+    comments = "".join(f"# {line}".rstrip() + "\n" for line in header.splitlines())
+    return comments + yaml.dump(document, Dumper=_Dumper, sort_keys=False,
+                                default_flow_style=None, allow_unicode=True, width=88)

@@ -1,0 +1,319 @@
+"""Robot description files: bit-for-bit round trips, the preset files, validation
+messages (field path, line, fix) and the command line."""
+
+from __future__ import annotations
+
+import math
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+import tension_opt as to
+from tension_opt import robot_files
+from tension_opt.kinds import KINDS
+from tension_opt.presets import PUBLISHED, algae_harvester_from_parameters
+from tension_opt.robot_cli import main
+
+ROOT = Path(__file__).resolve().parents[2]
+PRESETS = {"algae_harvester": to.presets.algae_harvester, **PUBLISHED}
+ARRAYS = ("anchors", "attachments", "com", "t_min", "t_max", "inertia", "home")
+SCALARS = ("mass", "g", "kind", "name", "cable")
+
+
+def assert_same_robot(a: to.CableRobot, b: to.CableRobot) -> None:
+    """Every array equal bit for bit (same dtype, shape and bytes) and every scalar ==."""
+    for field in ARRAYS:
+        x, y = getattr(a, field), getattr(b, field)
+        assert (x is None) == (y is None), field
+        if x is not None:
+            assert np.array_equal(x, y), field
+            assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes(), field
+    for field in SCALARS:
+        assert getattr(a, field) == getattr(b, field), field
+
+
+# ------------------------------------------------------------------ round trips
+@pytest.mark.parametrize("suffix", [".yaml", ".yml", ".json"])
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_every_preset_round_trips_bit_for_bit(name: str, suffix: str, tmp_path: Path) -> None:
+    robot = PRESETS[name]()
+    path = tmp_path / f"{name}{suffix}"
+    robot.to_file(path)
+    assert_same_robot(to.CableRobot.from_file(path), robot)
+    # and a second trip writes the same text
+    again = tmp_path / f"again{suffix}"
+    to.CableRobot.from_file(path).to_file(again)
+    assert again.read_text() == path.read_text()
+
+
+_coordinate = st.floats(-1e6, 1e6, allow_nan=False)  # includes -0.0, 5e-324, 0.1 + 0.2...
+
+
+@st.composite
+def robots(draw: st.DrawFn) -> to.CableRobot:
+    kind = draw(st.sampled_from(sorted(KINDS)))
+    m = draw(st.integers(1, 9))
+    points = st.lists(st.lists(_coordinate, min_size=3, max_size=3), min_size=m, max_size=m)
+    t_min = draw(st.one_of(st.floats(0, 1e4), st.lists(st.floats(0, 1e4), min_size=m,
+                                                        max_size=m)))
+    slack = draw(st.one_of(st.just(math.inf), st.floats(0, 1e4)))
+    cable = draw(st.one_of(st.none(), st.builds(
+        to.CableProperties, st.floats(1e-6, 1.0), st.floats(0, 100.0),
+        st.one_of(st.just(math.inf), st.floats(1e-3, 1e12)))))
+    inertia = draw(st.one_of(st.none(), st.lists(st.floats(0, 1e3), min_size=3,
+                                                 max_size=3).map(np.diag)))
+    pattern = KINDS[kind]
+    home = draw(st.one_of(st.none(), st.lists(_coordinate, min_size=pattern.pose_size,
+                                              max_size=pattern.pose_size)))
+    try:
+        return to.CableRobot(
+            anchors=np.array(draw(points)), attachments=np.array(draw(points)),
+            mass=draw(st.floats(1e-6, 1e6)), kind=kind, com=draw(st.lists(
+                _coordinate, min_size=3, max_size=3)), g=draw(st.floats(0, 100)),
+            t_min=t_min, t_max=np.asarray(t_min) + slack, cable=cable, home=home,
+            name=draw(st.text(min_size=1, max_size=20)), inertia=inertia)
+    except to.InvalidInputError:  # coinciding anchors
+        assume(False)
+        raise
+
+
+@settings(max_examples=150, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(robot=robots(), suffix=st.sampled_from([".yaml", ".json"]))
+def test_any_robot_round_trips_bit_for_bit(robot: to.CableRobot, suffix: str,
+                                           tmp_path: Path) -> None:
+    path = tmp_path / f"robot{suffix}"
+    robot.to_file(path)
+    assert_same_robot(to.CableRobot.from_file(path), robot)
+
+
+# ------------------------------------------------------------------ preset files
+def test_the_study_file_is_the_parametric_robot_at_the_defaults() -> None:
+    assert_same_robot(to.presets.algae_harvester(), algae_harvester_from_parameters())
+    robot = to.presets.algae_harvester()
+    assert robot.t_min[0] == 258.6 * 9.81
+    assert robot.cable == to.CableProperties.from_density(0.020, 7860.0)
+
+
+def test_preset_files_hold_the_published_numbers() -> None:
+    cogiro = to.presets.cogiro()
+    assert cogiro.anchors[0].tolist() == [-7.1775, -5.4361, 5.3911]
+    assert cogiro.attachments[6].tolist() == [0.5021, 0.275, -0.0007]
+    assert (cogiro.mass, cogiro.com.tolist()) == (91.058, [-0.034, -0.013, 0.264])
+    # CoGiRo's inertia about its centre of mass (CASPR, ref="com"), not the box default
+    assert cogiro.inertia.tolist() == [[36.598, -0.453, 3.012], [-0.453, 35.982, -1.539],
+                                       [3.012, -1.539, 25.439]]
+    assert cogiro.cable == to.CableProperties(0.004, 0.064, 8.2051e-6 * 100e9)
+    assert (cogiro.t_min == 100.0).all() and (cogiro.t_max == 5000.0).all()
+    ipanema = to.presets.ipanema3()
+    assert ipanema.cable == to.CableProperties.from_density(0.006, 980.0)
+    assert ipanema.inertia.tolist() == np.diag([5.226154, 0.637352, 4.723802]).tolist()
+    assert ipanema.attachments[0].tolist() == [-0.07, 0.648, -0.26]
+    kntu = to.presets.kntu_planar()
+    assert (kntu.g, kntu.t_min[0], kntu.t_max[0], kntu.inertia[2, 2]) == (0.0, 0.001, 60.0, 0.1)
+    point = to.presets.point_xz_4cable()
+    assert point.anchors.tolist() == [[0.5, 0, 0.5], [-0.5, 0, 0.5], [-0.5, 0, -0.5],
+                                      [0.5, 0, -0.5]]
+
+
+def test_material_labels_are_the_catalogue_names() -> None:
+    from catenary.materials import material_names
+
+    assert sorted(robot_files.MATERIAL_NAMES) == sorted(material_names(aliases=True))
+
+
+# ------------------------------------------------------------------ validation
+GOOD = ROOT / "tension_opt" / "data" / "cogiro.yaml"
+
+
+def _line_of(text: str, start: str, nth: int = 1) -> int:
+    """1-based number of the ``nth`` line of ``text`` starting with ``start``."""
+    found = [i for i, line in enumerate(text.splitlines(), 1) if line.startswith(start)]
+    return found[nth - 1]
+
+
+def _bad_file(tmp_path: Path, old: str, new: str) -> tuple[Path, str]:
+    text = GOOD.read_text()
+    assert old in text
+    bad = text.replace(old, new, 1)
+    path = tmp_path / "bad.yaml"
+    path.write_text(bad)
+    return path, bad
+
+
+# (text to change, its replacement, field path, start of its line (or (start, nth); None:
+# no line), a pattern of the message and its fix)
+CASES = {
+    "missing field": ("mass: 91.058\n", "", "mass", None, r"add it: Platform mass \(kg\)"),
+    "wrong type": ("mass: 91.058", "mass: heavy", "mass", "mass:",
+                   r"valid number \(got 'heavy'\); expected: Platform mass \(kg\), > 0"),
+    "negative mass": ("mass: 91.058", "mass: -91.058", "mass", "mass:",
+                      r"greater than 0 .*Platform mass \(kg\), > 0"),
+    "unknown material": ("material: steel", "material: stele", "cable.material", "cable:",
+                         "unknown cable material 'stele': use one of steel"),
+    "attachments count": ("- [-0.5045, -0.3463, 0.9976]\n", "", "attachments",
+                          "attachments:", "has 7 points but anchors has 8: give one"),
+    "short row": ("- [7.1608, -5.5342, 5.3973]", "- [7.1608, -5.5342]", "anchors[7]",
+                  "- [7.1608", r"at least 3 items.*one \[x, y, z\] per cable \(m\)"),
+    "unknown kind": ("kind: spatial6", "kind: hexapod", "kind", "kind:",
+                     "unknown kind 'hexapod': use one of point3, planar_point2"),
+    "non-symmetric inertia": ("- [3.012, -1.539, 25.439]", "- [3.1, -1.539, 25.439]",
+                              "inertia", "inertia:", "must be symmetric"),
+    "unknown field": ("g: 9.81\n", "g: 9.81\ncolour: red\n", "colour", "colour:",
+                      "unknown field; remove it or correct its spelling"),
+    "negative bound": ("t_min: 100.0", "t_min: -100.0", "t_min", "t_min:",
+                       "cables can only pull"),
+    "bounds crossed": ("t_min: 100.0", "t_min: 6000.0", "t_min", "t_min:",
+                       "exceeds t_max = 5000.0; lower t_min or raise t_max"),
+    "home size": ("home: [0.0, 0.0, 2.0, 0.0, 0.0, 0.0]", "home: [0.0, 0.0, 2.0]", "home",
+                  "home:", r"a spatial6 pose has 6: \(x, y, z, rx, ry, rz\)"),
+    "units": ("length: m,", "length: mm,", "units.length", "units:", "metres"),
+    "EA": ("EA: 820510.0", "EA: -1.0", "cable.EA", "cable:", r"Axial stiffness \(N\)"),
+    "EA text": ("EA: 820510.0", "EA: stiff", "cable.EA", "cable:", 'number or "inf"'),
+    "material only": ("linear_mass: 0.064, ", "", "cable", "cable:",
+                      r"give exactly one of linear_mass .*the file gives neither "
+                      r"\(material 'steel' is a label"),
+    "same anchor twice": ("- [-7.4594, -5.1504, 5.3999]", "- [-7.1775, -5.4361, 5.3911]",
+                          "anchors[1]", ("- [-7.1775, -5.4361, 5.3911]", 2),
+                          r"coincides with anchors\[0\]: each cable needs its own"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_a_bad_file_names_the_field_its_line_and_the_fix(case: str, tmp_path: Path) -> None:
+    old, new, field, line_start, fix = CASES[case]
+    path, text = _bad_file(tmp_path, old, new)
+    with pytest.raises(to.RobotFileError) as caught:
+        to.CableRobot.from_file(path)
+    error = caught.value
+    assert isinstance(error, to.InvalidInputError) and isinstance(error, to.TensionOptError)
+    assert str(path) in str(error) and error.path == str(path)
+    fields = {problem[0]: problem for problem in error.problems}
+    assert field in fields, error.problems
+    _, line, message = fields[field]
+    if line_start is None:
+        assert line == 0 and f"  {field}: " in str(error)
+    else:
+        start, nth = line_start if isinstance(line_start, tuple) else (line_start, 1)
+        assert line == _line_of(text, start, nth)
+        assert f"line {line}: {field}: " in str(error)
+    assert re.search(fix, message), message
+
+
+def test_a_bad_json_file_names_the_field_and_its_line(tmp_path: Path) -> None:
+    path = tmp_path / "robot.json"
+    to.presets.kntu_planar().to_file(path)
+    text = path.read_text().replace('"planar3"', '"planar4"')
+    path.write_text(text)
+    with pytest.raises(to.RobotFileError, match="unknown kind 'planar4'") as caught:
+        to.CableRobot.from_file(path)
+    (field, line, _), = caught.value.problems
+    assert (field, line) == ("kind", _line_of(text, '  "kind"'))
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("name: a\nname: b\n", "line 2: .*duplicate key 'name'"),
+    ("name: a\nanchors: [[0, 0, 1]\n", "line 3: .*expected ','"),
+    ("- 1\n- 2\n", "one mapping of fields"),
+    ("", "one mapping of fields"),
+])
+def test_unreadable_yaml_is_a_file_error_with_its_line(text: str, message: str,
+                                                       tmp_path: Path) -> None:
+    path = tmp_path / "robot.yaml"
+    path.write_text(text)
+    with pytest.raises(to.RobotFileError, match=message):
+        to.CableRobot.from_file(path)
+
+
+def test_unknown_suffix_missing_file_and_unregistered_kind_are_file_errors(
+        tmp_path: Path) -> None:
+    with pytest.raises(to.RobotFileError, match=r"suffix '\.txt'.*\.yaml, \.yml or \.json"):
+        to.CableRobot.from_file(tmp_path / "robot.txt")
+    with pytest.raises(to.RobotFileError, match="cannot be read"):
+        to.CableRobot.from_file(tmp_path / "absent.yaml")
+    from tension_opt.kinds import MotionPattern
+
+    class Yz(MotionPattern):
+        name, coordinates, positions, position_axes, wrench_rows = (
+            "yz", ("y", "z"), (0, 1), (1, 2), (1, 2))
+
+    robot = to.CableRobot(anchors=np.eye(3), attachments=np.zeros((3, 3)), mass=1.0,
+                          kind=Yz())
+    with pytest.raises(to.RobotFileError, match="kind 'yz' is not in"):
+        robot.to_file(tmp_path / "yz.yaml")
+
+
+def test_a_minimal_file_takes_the_documented_defaults(tmp_path: Path) -> None:
+    path = tmp_path / "minimal.yaml"
+    path.write_text("name: tripod\nkind: point3\nunits: {length: m, mass: kg, force: N}\n"
+                    "anchors: [[0, 0, 3], [2, 0, 3], [0, 2, 3]]\n"
+                    "attachments: [[0, 0, 0], [0, 0, 0], [0, 0, 0]]\nmass: 1e1\n")
+    robot = to.CableRobot.from_file(path)
+    assert (robot.mass, robot.g, robot.kind, robot.cable, robot.home) == (
+        10.0, 9.81, "point3", None, None)
+    assert robot.t_min.tolist() == [0.0] * 3 and robot.t_max.tolist() == [math.inf] * 3
+    assert robot.com.tolist() == [0.0] * 3 and not robot.inertia.any()  # a point: no box
+
+
+def test_density_and_inf_words_read_as_the_robot_api_makes_them(tmp_path: Path) -> None:
+    path = tmp_path / "robot.json"
+    path.write_text('{"name": "r", "kind": "point3", "units": {"length": "m", "mass": "kg",'
+                    ' "force": "N"}, "anchors": [[0, 0, 3], [2, 0, 3], [0, 2, 3]],\n'
+                    '"attachments": [[0, 0, 0], [0, 0, 0], [0, 0, 0]], "mass": 2,\n'
+                    '"t_max": [5, "inf", "Infinity"],\n'
+                    '"cable": {"diameter": 0.02, "density": 7860, "EA": "inf"}}\n')
+    robot = to.CableRobot.from_file(path)
+    assert robot.cable == to.CableProperties.from_density(0.02, 7860.0)
+    assert robot.t_max.tolist() == [5.0, math.inf, math.inf]
+
+
+def test_the_documented_example_is_a_valid_file(tmp_path: Path) -> None:
+    text = (ROOT / "docs" / "robot_files.md").read_text()
+    path = tmp_path / "example.yaml"
+    path.write_text(re.search(r"```yaml\n(.*?)```", text, re.S).group(1))
+    robot = to.CableRobot.from_file(path)
+    assert (robot.m, robot.dof, robot.cable.EA, robot.home[2]) == (8, 6, 820510.0, 1.5)
+    assert to.distribute(robot, robot.home).success.all()
+
+
+# ------------------------------------------------------------------ command line
+def test_check_summarises_a_valid_file(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["check", str(GOOD)]) == 0
+    out = capsys.readouterr().out
+    margin = float(to.capacity_margin(to.presets.cogiro(), [0, 0, 2.0, 0, 0, 0])[0])
+    for expected in ("name:            CoGiRo", "kind:            spatial6", "cables:          8",
+                     "DOF:             6", "mass:            91.058 kg",
+                     "feasible at home: yes", f"capacity margin at home: {margin:.6g} N"):
+        assert expected in out
+
+
+def test_check_of_a_bad_file_exits_2_with_the_message(tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture[str]
+                                                      ) -> None:
+    path, _ = _bad_file(tmp_path, "mass: 91.058", "mass: -1")
+    assert main(["check", str(path)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and "mass: input should be greater than 0" in captured.err
+    # a valid file whose home puts the point mass on a drawing point
+    study = to.presets.algae_harvester()
+    path = tmp_path / "on_anchor.yaml"
+    study.with_(home=study.anchors[0]).to_file(path)
+    assert main(["check", str(path)]) == 2
+    assert "home pose cannot be evaluated" in capsys.readouterr().err
+
+
+def test_python_dash_m_tension_opt_robot_check(tmp_path: Path) -> None:
+    good = subprocess.run([sys.executable, "-m", "tension_opt.robot", "check", str(GOOD)],
+                          capture_output=True, text=True, timeout=120)
+    assert good.returncode == 0, good.stderr
+    assert "cables:          8" in good.stdout and good.stderr == ""
+    path, _ = _bad_file(tmp_path, "kind: spatial6", "kind: hexapod")
+    bad = subprocess.run([sys.executable, "-m", "tension_opt.robot", "check", str(path)],
+                         capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 2 and "kind: unknown kind 'hexapod'" in bad.stderr
