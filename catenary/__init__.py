@@ -18,6 +18,12 @@ A :class:`tension_opt.CableRobot` whose cables sag (built on ``tension_opt``):
 - ``catenary.forward``: sag-aware forward kinematics (:func:`forward_kinematics`);
 - ``catenary.margin``: the coupled capacity margin (:func:`coupled_margin`);
 - ``catenary.workspace``: the coupled-sag workspace (:func:`sag_workspace`).
+- ``catenary.robot_stiffness``: the platform's stiffness with straight or sagging
+  elastic cables (:func:`platform_stiffness`);
+- ``catenary.response``: natural frequencies, mode shapes and static deflection
+  (:func:`natural_frequencies`, :func:`vibration_modes`, :func:`deflection`);
+- ``catenary.stiffness_maps``: the lowest frequency and the deflection over a grid
+  (:func:`stiffness_map`, :func:`plot_stiffness_map`).
 """
 
 from .elastic import (
@@ -42,7 +48,16 @@ from .materials import (
     get_material,
     material_names,
 )
+from .response import (
+    VibrationModes,
+    deflection,
+    mass_matrix,
+    natural_frequencies,
+    vibration_modes,
+)
+from .robot_stiffness import StiffnessResult, platform_stiffness, stiffness_analysis
 from .solve import ForcesResult, LengthResult, solve_forces, solve_length
+from .stiffness_maps import StiffnessMap, plot_stiffness_map, stiffness_map
 from .workspace import SagWorkspaceResult, sag_workspace
 
 __all__ = [
@@ -55,15 +70,23 @@ __all__ = [
     "InverseKinematicsResult",
     "LengthResult",
     "SagWorkspaceResult",
+    "StiffnessMap",
+    "StiffnessResult",
+    "VibrationModes",
     "breaking_load",
     "cable_properties",
     "coupled_margin",
+    "deflection",
     "flexibility",
     "forward_kinematics",
     "get_material",
     "inverse_kinematics",
     "length_derivative",
+    "mass_matrix",
     "material_names",
+    "natural_frequencies",
+    "platform_stiffness",
+    "plot_stiffness_map",
     "profile",
     "sag_workspace",
     "solve_forces",
@@ -71,6 +94,9 @@ __all__ = [
     "span_jacobian",
     "spans",
     "stiffness",
+    "stiffness_analysis",
+    "stiffness_map",
     "stretched_length",
     "tension",
+    "vibration_modes",
 ]
