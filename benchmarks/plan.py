@@ -108,15 +108,26 @@ def plan(
     Returns
     -------
     list of Cell
-        Ordered by scenario, problem, backend and setting.
+        Ordered by scenario, problem, backend and setting; each once, however often a
+        name or setting is given.
     """
-    scenarios = list(SCENARIOS.values() if scenarios is None else scenarios)
-    problems = list(PROBLEMS.values() if problems is None else problems)
-    backends = list(tension_opt.available_backends() if backends is None else backends)
+    scenarios = _unique(SCENARIOS.values() if scenarios is None else scenarios)
+    problems = _unique(PROBLEMS.values() if problems is None else problems)
+    backends = list(dict.fromkeys(tension_opt.available_backends() if backends is None
+                                  else backends))
+    settings = list(dict.fromkeys(settings))
     warm = {b: supports_warm_start(b) for b in backends}
     return [Cell(sc, pr, be, s)
             for sc in scenarios for pr in problems if applicable(sc, pr)
             for be in backends for s in settings if warm[be] or not s.warm_start]
+
+
+def _unique(items: Iterable[Any]) -> list[Any]:
+    """Scenarios or problems, the first of each name, in order."""
+    kept: dict[str, Any] = {}
+    for item in items:
+        kept.setdefault(item.name, item)
+    return list(kept.values())
 
 
 @dataclass(frozen=True)

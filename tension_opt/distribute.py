@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
+import operator
+import re
 import time
-from dataclasses import replace
+from collections.abc import Callable
+from dataclasses import fields, is_dataclass, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tension_opt.backends.base import Backend, RawResult
+from tension_opt.backends.base import MAX_ERRORS, Backend, RawResult
 from tension_opt.backends.registry import (
     AUTO_ORDER,
     available_backends,
@@ -17,12 +20,19 @@ from tension_opt.backends.registry import (
     get_backend,
 )
 from tension_opt.backends.settings import check_options
+from tension_opt.checks import as_finite, as_float_array
 from tension_opt.errors import InvalidInputError
 from tension_opt.problems import Objective, StandardForm, TensionProblem, as_problem
-from tension_opt.robot import CableRobot, as_float_array
+from tension_opt.robot import CableRobot
 from tension_opt.solution import FEASIBILITY_TOL, Status, TensionSolution, status_array
 
-__all__ = ["FEASIBILITY_TOL", "distribute", "solution_of"]
+__all__ = ["CHUNK_SIZE", "FEASIBILITY_TOL", "distribute", "solution_of"]
+
+#: Poses per chunk of a large batch (:func:`distribute`). The closed form's
+#: two-dimensional enumeration (eight cables, six degrees of freedom) holds about
+#: 30 kB per pose while it runs, so a chunk needs about 120 MB whatever the batch
+#: (larger chunks are no faster: their temporaries fall out of the caches).
+CHUNK_SIZE = 4096
 
 
 def distribute(
@@ -32,6 +42,8 @@ def distribute(
     backend: str | Backend = "auto",
     wrench: ArrayLike | None = None,
     previous: ArrayLike | None = None,
+    *,
+    chunk_size: int | None = None,
     **options: Any,
 ) -> TensionSolution:
     """Distribute cable tensions over a batch of poses.
@@ -58,10 +70,19 @@ def distribute(
         each pose, solved independently. Shape (m,) or None: the poses are a sequence,
         solved in order, each against the solution of the pose before (the first
         against ``previous``, or unsmoothed when None).
+    chunk_size : int, optional
+        Poses per chunk (default :data:`CHUNK_SIZE`). A larger batch is solved chunk
+        by chunk (geometry, problem and backend), so its memory is that of its
+        results plus one chunk's work; the results are those of one call on the whole
+        batch (a sequence carries on from one chunk to the next), save that
+        ``solution.form`` is None (the problems of every pose would outweigh the
+        tensions; :meth:`TensionProblem.standard_form` rebuilds those of any poses).
+        Invalid input in a later chunk raises when that chunk is reached.
     **options
         Passed to the backend: ``accuracy`` (``"default"`` or ``"high"``), ``time_limit``
         (s), ``solver_options`` (a dict in the solver's own names), ``warm_start``,
         ``batch_size`` (:mod:`tension_opt.backends.settings`); anything else is an error.
+        A warm start does not cross from one chunk to the next.
 
     Returns
     -------
@@ -71,26 +92,224 @@ def distribute(
     if not isinstance(robot, CableRobot):
         raise InvalidInputError(f"robot must be a CableRobot, got {type(robot).__name__}")
     check_options(options)
+    size = CHUNK_SIZE if chunk_size is None else _whole_positive("chunk_size", chunk_size)
     problem = as_problem(objective)
     p = robot.as_poses(poses)
+    prev = None if previous is None else as_float_array("previous", previous)
+    if len(p) <= size:
+        return _distribute_batch(robot, p, problem, backend, wrench, prev, options)[0]
+    return _distribute_chunks(robot, p, problem, backend, wrench, prev, options, size)
+
+
+def _distribute_batch(robot: CableRobot, p: NDArray, problem: TensionProblem,
+                      backend: str | Backend, wrench: ArrayLike | None,
+                      prev: NDArray | None, options: dict[str, Any]
+                      ) -> tuple[TensionSolution, NDArray | None]:
+    """:func:`distribute` of validated poses ``p`` (N, n) in one piece; also, for a
+    sequence, the tensions the pose after it is smoothed against (its last optimal
+    ones, else ``prev``)."""
     t0 = time.perf_counter()
     A = robot.structure_matrices(p)
     b = robot.required_wrench(p, wrench)
     geometry_time = time.perf_counter() - t0
-    prev = None if previous is None else as_float_array("previous", previous)
     sequential = problem.is_sequential and (prev is None or prev.ndim == 1)
     # For a sequence this is the shape of every smoothed pose, to choose and check with.
     form = problem.standard_form_from(robot, A, b, np.zeros(robot.m) if sequential else prev)
     chosen = choose_backend(backend, form)
     if form.N == 0:  # an empty batch is an empty solution, whatever the backend
         empty = RawResult(np.empty((0, robot.m)), status_array(0), np.zeros(0, dtype=int))
-        return solution_of(form, empty, chosen, setup_time=geometry_time)
+        return solution_of(form, empty, chosen, setup_time=geometry_time), prev
     auto = isinstance(backend, str) and backend == "auto"
+    last = None
     if sequential:
         raw, form = _solve_sequence(chosen, problem, robot, A, b, prev, options, auto)
+        # As the sequence itself goes on: from the solver's optimal poses.
+        solved = np.flatnonzero(raw.status == Status.OPTIMAL)
+        last = raw.tensions[solved[-1]].copy() if len(solved) else prev
     else:
         raw = _solve(chosen, form, options, auto)
-    return solution_of(form, raw, chosen, setup_time=geometry_time)
+    return solution_of(form, raw, chosen, setup_time=geometry_time), last
+
+
+def _distribute_chunks(robot: CableRobot, p: NDArray, problem: TensionProblem,
+                       backend: str | Backend, wrench: ArrayLike | None,
+                       prev: NDArray | None, options: dict[str, Any],
+                       size: int) -> TensionSolution:
+    """:func:`distribute` of validated poses ``p`` (N, n) in chunks of at most ``size``
+    poses.
+
+    Inputs with one row per pose (wrench, bounds, reference, independent previous
+    tensions) are cut with the poses; a sequence goes on from the last optimal tension
+    of the chunk before. Pose numbers in errors and extras count over the whole batch.
+    """
+    N, m = len(p), robot.m
+    w_rows = _pose_rows("wrench", None if wrench is None else as_finite("wrench", wrench),
+                        N, robot.dof, scalar=False)
+    chained = problem.is_sequential and (prev is None or prev.ndim == 1)
+    prev_rows = _pose_rows("previous", prev if problem.is_sequential and not chained
+                           else None, N, m)
+    per_pose = {name: cut for name in ("t_min", "t_max", "reference")
+                if (cut := _pose_rows(name, getattr(problem, name), N, m)) is not None}
+    joined = _Joined(N)
+    last = prev
+    count = -(-N // size)  # chunks of equal length (to one pose), none of a few poses
+    for k in range(count):
+        start = k * N // count
+        sl = slice(start, (k + 1) * N // count)
+        part = problem.with_(**{name: cut(sl) for name, cut in per_pose.items()}
+                             ) if per_pose else problem
+        try:
+            sol, after = _distribute_batch(
+                robot, p[sl], part, backend, None if w_rows is None else w_rows(sl),
+                last if chained else (None if prev_rows is None else prev_rows(sl)), options)
+        except InvalidInputError as error:
+            raise _renumbered(error, start) from None
+        joined.add(sol, sl)
+        last = after if chained else None
+    return joined.solution(problem)
+
+
+def _whole_positive(name: str, value: object) -> int:
+    """``value`` as a whole number >= 1, or the package's error naming ``name``."""
+    try:
+        if isinstance(value, bool | np.bool_):
+            raise TypeError(name)
+        number = operator.index(value)  # type: ignore[arg-type]
+    except TypeError:
+        raise InvalidInputError(f"{name} must be a whole number >= 1, got {value!r}") from None
+    if number < 1:
+        raise InvalidInputError(f"{name} must be a whole number >= 1, got {number}")
+    return number
+
+
+def _pose_rows(name: str, value: ArrayLike | None, N: int, k: int, scalar: bool = True
+               ) -> Callable[[slice], Any] | None:
+    """How to cut ``value`` (one row per pose, or one for every pose) to chunks of poses:
+    a function of the chunk's slice, None for None.
+
+    Raises
+    ------
+    InvalidInputError
+        If ``value`` has neither shape (k,) nor (N, k) (nor is a number, with ``scalar``).
+    """
+    if value is None:
+        return None
+    shape = np.shape(value)
+    try:
+        fits = np.broadcast_shapes(shape, (N, k)) == (N, k) and (scalar or len(shape) > 0)
+    except ValueError:
+        fits = False
+    if not fits:
+        allowed = "be a scalar or have shape" if scalar else "have shape"
+        raise InvalidInputError(f"{name} must {allowed} ({k},) or ({N}, {k}), got {shape}")
+    if len(shape) == 2 and shape[0] == N:
+        rows = np.asarray(value)
+        return lambda sl: rows[sl]
+    return lambda sl: value
+
+
+_POSE_NUMBER = re.compile(r"\bpose (\d+)\b")
+
+
+def _renumbered(error: InvalidInputError, start: int) -> InvalidInputError:
+    """``error`` of a chunk starting at pose ``start``, its pose numbers counted over the
+    whole batch."""
+    if not start:
+        return error
+    text = _POSE_NUMBER.sub(lambda hit: f"pose {int(hit.group(1)) + start}", str(error))
+    return type(error)(text)
+
+
+class _Joined:
+    """The fields of a :class:`TensionSolution` put together from its chunks.
+
+    Per-pose arrays (first axis over the chunk's poses, also inside a dataclass field
+    such as the multipliers) are written into arrays allocated for the whole batch at
+    the first chunk; times add up; extras are merged (:func:`_merge_extras`); any other
+    field keeps the first chunk's value. A per-pose field that some chunk lacks (e.g.
+    iteration counts) is None for the batch.
+    """
+
+    def __init__(self, N: int) -> None:
+        self.N = N
+        self.fields: dict[str, Any] = {}
+        self.parts: dict[str, tuple[type, list[str]]] = {}  # dataclass fields' members
+
+    def add(self, sol: TensionSolution, sl: slice) -> None:
+        """Take the solution of the poses ``sl`` of the batch."""
+        n, first = sl.stop - sl.start, not self.fields
+        for f in fields(sol):
+            value = getattr(sol, f.name)
+            if f.name in ("setup_time", "solve_time"):
+                self.fields[f.name] = self.fields.get(f.name, 0.0) + value
+            elif f.name == "extras":
+                _merge_extras(self.fields.setdefault("extras", {}), value, sl.start)
+            else:
+                if first:
+                    self.fields[f.name] = self._start(f.name, value, n)
+                self._write(f.name, value, sl)
+
+    def _start(self, name: str, value: Any, n: int) -> Any:
+        if _rows_of(value, n):
+            return np.empty((self.N, *value.shape[1:]), value.dtype)
+        if is_dataclass(value) and not isinstance(value, type):
+            members = [f.name for f in fields(value)]
+            if members and all(_rows_of(getattr(value, k), n) for k in members):
+                self.parts[name] = (type(value), members)
+                return {k: self._start(k, getattr(value, k), n) for k in members}
+        return value
+
+    def _write(self, name: str, value: Any, sl: slice, into: dict[str, Any] | None = None
+               ) -> None:
+        into = self.fields if into is None else into
+        target = into.get(name)
+        if name in self.parts and into is self.fields and target is not None:
+            if value is None:
+                into[name] = None
+            else:
+                for k in self.parts[name][1]:
+                    self._write(k, getattr(value, k), sl, target)
+                if any(v is None for v in target.values()):
+                    into[name] = None
+        elif isinstance(target, np.ndarray) and target.shape[0] == self.N:
+            fits = _rows_of(value, sl.stop - sl.start) and value.shape[1:] == target.shape[1:]
+            if fits:
+                target[sl] = value
+            else:
+                into[name] = None
+
+    def solution(self, problem: TensionProblem) -> TensionSolution:
+        """The solution of the whole batch (no form: see :func:`distribute`)."""
+        out = dict(self.fields, problem=problem, form=None)
+        for name, (cls, _members) in self.parts.items():
+            if out[name] is not None:
+                out[name] = cls(**out[name])
+        return TensionSolution(**out)
+
+
+def _rows_of(value: Any, n: int) -> bool:
+    """Whether ``value`` is an array with one row per pose of a chunk of ``n``."""
+    return isinstance(value, np.ndarray) and value.ndim >= 1 and value.shape[0] == n
+
+
+def _merge_extras(total: dict[str, Any], part: dict[str, Any], start: int) -> None:
+    """Add a chunk's extras (its poses counted from ``start``) to the batch's ``total``:
+    per-pose errors and fallbacks renumbered, messages joined, anything else kept from
+    the first chunk that has it."""
+    for key, value in part.items():
+        if key == "errors":
+            errors = total.setdefault("errors", {})
+            for pose, message in value.items():
+                if len(errors) < MAX_ERRORS:
+                    errors[pose + start if isinstance(pose, int) else pose] = message
+        elif key == "fallback":
+            for name, poses in value.items():
+                total.setdefault("fallback", {}).setdefault(name, []).extend(
+                    k + start for k in poses)
+        elif key not in total:
+            total[key] = value
+        elif isinstance(value, str) and value not in str(total[key]).split("; "):
+            total[key] = f"{total[key]}; {value}"
 
 
 def _solve(backend: Backend, form: StandardForm, options: dict[str, Any],

@@ -42,7 +42,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.backends.base import Backend
 from tension_opt.backends.registry import LP_ORDER, available_backends, choose_backend
-from tension_opt.errors import UnsupportedProblemError
+from tension_opt.checks import as_float_array
+from tension_opt.errors import InvalidInputError, UnsupportedProblemError
 from tension_opt.nullspace import (
     SolutionSet,
     bound_lines,
@@ -491,6 +492,10 @@ def margin_solve(A: NDArray, b: NDArray, lo_c: NDArray, lo_g: NDArray, hi_c: NDA
     return margin, T, status, "+".join(used)
 
 
+#: Poses per chunk of :func:`capacity_margin` (peak memory is bounded by a chunk).
+MARGIN_CHUNK = 4096
+
+
 def robot_bounds(robot: CableRobot, N: int) -> tuple[NDArray, NDArray]:
     """The robot's tension bounds ``t_min``, ``t_max`` per pose, each (N, m) (N)."""
     lb = np.broadcast_to(np.asarray(robot.t_min, dtype=float), (N, robot.m))
@@ -557,4 +562,19 @@ def capacity_margin(robot: CableRobot, poses: ArrayLike, wrench: ArrayLike | Non
         no tensions are in equilibrium, NaN where a solver failed.
     """
     p = robot.as_poses(poses)
-    return pose_margins(robot, p, wrench, backend, options)[0]
+    N = len(p)
+    w = None if wrench is None else as_float_array("wrench", wrench)
+    per_pose = w is not None and w.ndim == 2 and w.shape[0] == N and N > 1
+    if N <= MARGIN_CHUNK:
+        return pose_margins(robot, p, wrench, backend, options)[0]
+    # Chunks bound the working set (the 2-D enumeration holds ~20 kB per pose).
+    margin = np.empty(N)
+    for start in range(0, N, MARGIN_CHUNK):
+        chunk = slice(start, start + MARGIN_CHUNK)
+        try:
+            margin[chunk] = pose_margins(robot, p[chunk], w[chunk] if per_pose else w,
+                                         backend, options)[0]
+        except InvalidInputError as error:
+            raise InvalidInputError(f"poses[{start}:{min(N, start + MARGIN_CHUNK)}]: "
+                                    f"{error}") from None
+    return margin

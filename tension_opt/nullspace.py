@@ -6,7 +6,8 @@ pieces that the closed-form backend (:mod:`tension_opt.backends.closed_form`), t
 low-dimensional solvers (:mod:`tension_opt.backends.lowdim`) and the capacity margin
 (:mod:`tension_opt.margin`) share:
 
-- :func:`typical_tension`: the tension scale of a pose (tolerances are relative to it);
+- :func:`typical_tension`: the tension scale of a pose (tolerances are relative to it),
+  measured with :func:`safe_norm` (no overflow of squares, wrenches up to the float range);
 - :func:`pinv_and_null` (full row rank) and :func:`solution_set` (any rank, with the
   consistency of ``b``): minimum-norm ``T0`` and an orthonormal null-space basis;
 - :func:`bound_lines`: bounds ``lb <= T0 + Z z <= ub`` as half-spaces in ``z``;
@@ -28,6 +29,7 @@ __all__ = [
     "bound_lines",
     "min_of_max_lines",
     "pinv_and_null",
+    "safe_norm",
     "solution_set",
     "typical_tension",
 ]
@@ -54,10 +56,42 @@ def typical_tension(A: NDArray, b: NDArray, lb: NDArray) -> NDArray:
     lb : ndarray, shape (N, m)
         Lower tension bounds (N); ``-inf`` where absent.
     """
-    col = np.linalg.norm(A, axis=1).max(axis=1)
-    s = np.linalg.norm(b, axis=1) / np.maximum(col, 1e-300)
+    col = safe_norm(A, axis=1).max(axis=1)
+    with np.errstate(over="ignore"):  # a quotient beyond the float range is inf
+        s = safe_norm(b, axis=1) / np.maximum(col, 1e-300)
     finite_lb = np.where(np.isfinite(lb), np.abs(lb), 0.0).max(axis=1)
     return np.maximum(np.maximum(s, finite_lb), 1e-12)
+
+
+def safe_norm(x: NDArray, axis: int) -> NDArray:
+    """Euclidean norms of ``x`` along ``axis`` without overflow or underflow of the
+    squares: norms of entries beyond about 1e154 (or below 1e-154) are taken of the
+    entries divided by their largest magnitude, then scaled back.
+
+    Parameters
+    ----------
+    x : ndarray
+        Finite entries (a non-finite entry gives an infinite or NaN norm).
+    axis : int
+
+    Returns
+    -------
+    ndarray
+        ``x``'s shape without ``axis``; ``inf`` only where the norm itself exceeds the
+        float range.
+    """
+    with np.errstate(over="ignore", under="ignore"):
+        r = np.asarray(np.linalg.norm(x, axis=axis))
+        # Squares that overflowed, or that may have underflowed (rare: measured again).
+        redo = np.isinf(r) | (r < 1e-150)
+        if redo.any():
+            moved = np.moveaxis(x, axis, -1)[redo]
+            top = np.abs(moved).max(axis=-1, initial=0.0)
+            fine = np.isfinite(top) & (top > 0)
+            again = r[redo]
+            again[fine] = top[fine] * np.linalg.norm(moved[fine] / top[fine, None], axis=-1)
+            r[redo] = again
+    return r
 
 
 def _particular(U: NDArray, inv_s: NDArray, Vt: NDArray, b: NDArray) -> tuple[NDArray, NDArray]:
@@ -166,7 +200,7 @@ def solution_set(A: NDArray, b: NDArray) -> SolutionSet:
         inv_s = np.where(keep, 1.0 / S, 0.0)
     T0, Utb = _particular(U, inv_s, Vt, b)
     outside = np.where(np.arange(Utb.shape[1])[None, :] < rank[:, None], 0.0, Utb)
-    consistent = np.linalg.norm(outside, axis=1) <= CONSISTENCY_TOL * np.linalg.norm(b, axis=1)
+    consistent = safe_norm(outside, axis=1) <= CONSISTENCY_TOL * safe_norm(b, axis=1)
     return SolutionSet(T0, Vt, rank, consistent)
 
 

@@ -4,7 +4,9 @@
 from the drawing points, :func:`default_box`) and keeps those where the minimum-sum
 problem is optimal, i.e. the platform's weight can be held with every tension within
 the robot's bounds (tightened by ``margin``). Poses are drawn and checked in rounds of
-``batch`` poses, each round one vectorised :func:`tension_opt.distribute` call.
+``batch`` poses, each round checked in vectorised :func:`tension_opt.distribute` calls of
+:data:`tension_opt.distribute.CHUNK_SIZE` poses (only the mask is kept, so memory grows
+with ``batch`` and ``n`` by a pose's coordinates only).
 
 The same seed, box and batch always give the same poses: each position coordinate is
 drawn as one column of ``batch`` values, in pose order, then the angle coordinates as
@@ -18,7 +20,7 @@ import operator
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tension_opt.distribute import distribute
+from tension_opt.distribute import CHUNK_SIZE, distribute
 from tension_opt.errors import InvalidInputError
 from tension_opt.problems import TensionProblem
 from tension_opt.robot import CableRobot
@@ -97,7 +99,13 @@ def feasible_mask(robot: CableRobot, poses: ArrayLike, backend: str = "closed_fo
                 f"margin={margin:g} N leaves no tension between the bounds "
                 f"(t_max - t_min is {float(np.min(t_max - t_min + 2 * margin)):g} N)")
         problem = TensionProblem("min_sum", t_min=t_min, t_max=t_max)
-    return distribute(robot, poses, problem, backend=backend).success
+    p = robot.as_poses(poses)
+    # Chunk by chunk, keeping only the mask: a solution holds ~200 bytes per pose.
+    mask = np.zeros(len(p), dtype=bool)
+    for start in range(0, len(p), CHUNK_SIZE):
+        sl = slice(start, start + CHUNK_SIZE)
+        mask[sl] = distribute(robot, p[sl], problem, backend=backend).success
+    return mask
 
 
 def random_feasible_poses(
@@ -159,8 +167,8 @@ def random_feasible_poses(
     while found < count and drawn < limit:
         poses = _draw(rng, lo, hi, size, groups)
         ok = feasible_mask(robot, poses, backend=backend, margin=margin)
-        kept.append(poses[ok])
-        found += int(ok.sum())
+        kept.append(poses[ok][:count - found])  # no more than asked for
+        found += len(kept[-1])
         drawn += size
     if found < count:
         raise InvalidInputError(
