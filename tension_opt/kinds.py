@@ -161,10 +161,13 @@ class SpatialBody(MotionPattern):
     def frames(self, poses: NDArray) -> tuple[NDArray, NDArray]:
         N = poses.shape[0]
         position = np.ascontiguousarray(poses[:, :3], dtype=float)
-        return position, Rotation.from_rotvec(poses[:, 3:]).as_matrix().reshape(N, 3, 3)
+        # A copy: scipy's Rotation refuses read-only arrays.
+        rotvec = np.array(poses[:, 3:], dtype=float)
+        return position, Rotation.from_rotvec(rotvec).as_matrix().reshape(N, 3, 3)
 
     def displace(self, poses: NDArray, step: NDArray) -> NDArray:
-        rot = Rotation.from_rotvec(step[:, 3:]) * Rotation.from_rotvec(poses[:, 3:])
+        rot = Rotation.from_rotvec(np.array(step[:, 3:])) * Rotation.from_rotvec(
+            np.array(poses[:, 3:]))
         return np.concatenate(
             [poses[:, :3] + step[:, :3], rot.as_rotvec().reshape(-1, 3)], axis=1
         )

@@ -95,3 +95,14 @@ def test_a_new_kind_is_one_class() -> None:
                                [[0.0, 98.1], [0.0, 98.1]], atol=1e-9)
     # Symmetric pose: the two upper cables share the load equally.
     assert sol.tensions[0, 0] == pytest.approx(sol.tensions[0, 1], rel=1e-12)
+
+
+def test_read_only_poses_are_accepted() -> None:
+    robot = to.presets.cogiro()
+    poses = np.array([[0.1, -0.2, 2.0, 0.05, -0.03, 0.2]])
+    expected = robot.structure_matrices(poses)
+    poses.setflags(write=False)
+    np.testing.assert_array_equal(robot.structure_matrices(poses), expected)
+    step = np.full((1, 6), 1e-3)
+    step.setflags(write=False)
+    assert np.isfinite(robot.displace(poses, step)).all()
