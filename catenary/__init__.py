@@ -24,6 +24,8 @@ A :class:`tension_opt.CableRobot` whose cables sag (built on ``tension_opt``):
   (:func:`natural_frequencies`, :func:`vibration_modes`, :func:`deflection`);
 - ``catenary.stiffness_maps``: the lowest frequency and the deflection over a grid
   (:func:`stiffness_map`, :func:`plot_stiffness_map`).
+- ``catenary.timing``: sag-aware time-optimal timing of a path
+  (:func:`time_optimal_sag`).
 """
 
 from .elastic import (
@@ -58,6 +60,7 @@ from .response import (
 from .robot_stiffness import StiffnessResult, platform_stiffness, stiffness_analysis
 from .solve import ForcesResult, LengthResult, solve_forces, solve_length
 from .stiffness_maps import StiffnessMap, plot_stiffness_map, stiffness_map
+from .timing import SagTimingResult, time_optimal_sag
 from .workspace import SagWorkspaceResult, sag_workspace
 
 __all__ = [
@@ -69,6 +72,7 @@ __all__ = [
     "InvalidCableError",
     "InverseKinematicsResult",
     "LengthResult",
+    "SagTimingResult",
     "SagWorkspaceResult",
     "StiffnessMap",
     "StiffnessResult",
@@ -98,5 +102,6 @@ __all__ = [
     "stiffness_map",
     "stretched_length",
     "tension",
+    "time_optimal_sag",
     "vibration_modes",
 ]

@@ -5,7 +5,7 @@ norm, pseudo-inverse, min-max, centred, smoothed), solved by exact closed forms,
 cvxpy, qpsolvers or scipy/HiGHS, over batches of poses.
 """
 
-from tension_opt import caspr, presets, workspace
+from tension_opt import caspr, dynamics, presets, workspace
 from tension_opt.backends import available_backends, get_backend
 from tension_opt.caspr import load_caspr
 from tension_opt.distribute import distribute
@@ -43,6 +43,7 @@ __all__ = [
     "capacity_margin",
     "caspr",
     "distribute",
+    "dynamics",
     "get_backend",
     "load_caspr",
     "presets",

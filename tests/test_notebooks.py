@@ -14,6 +14,7 @@ EXPECTED = {
     "03_trajectory_smoothing.ipynb",
     "04_sag_models.ipynb",
     "05_workspace.ipynb",
+    "06_dynamics.ipynb",
 }
 # A guard against a hung cell, not a benchmark: each notebook takes well under this.
 CELL_TIMEOUT_S = 120

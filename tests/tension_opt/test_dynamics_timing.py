@@ -1,0 +1,239 @@
+"""Time-optimal timing under tension limits (against toppra), the wrench facets and the
+dynamic workspace."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import tension_opt as to
+from benchmarks.scenarios import cogiro_path, pick_and_place
+from tension_opt import dynamics as dyn
+from tension_opt.dynamics import lp as lp_module
+from tension_opt.dynamics.path import PathSpline
+
+#: The study robot with a finite upper bound: with t_max = inf nothing limits a lift.
+STUDY_T_MAX = 15_000.0
+
+
+@pytest.fixture(scope="module")
+def study() -> tuple[to.CableRobot, np.ndarray]:
+    return to.presets.algae_harvester(t_max=STUDY_T_MAX), pick_and_place()
+
+
+@pytest.fixture(scope="module")
+def cogiro() -> tuple[to.CableRobot, np.ndarray]:
+    return to.presets.cogiro(), cogiro_path(to.presets.cogiro())
+
+
+def _toppra_duration(robot: to.CableRobot, path: np.ndarray, grid: np.ndarray) -> float:
+    """toppra on the same spline and grid, the wrench-feasible set as its linear
+    second-order constraint ``F w <= g`` (hyperplane-shifting facets)."""
+    toppra = pytest.importorskip("toppra")
+    import toppra.algorithm as algo
+    import toppra.constraint as tc
+
+    spline = PathSpline.through(robot, path)
+    big = 1e3 * float(np.abs(robot.t_max[np.isfinite(robot.t_max)]).max(initial=1e4))
+
+    def facets(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        H, h = dyn.wrench_facets(robot, q[None])
+        return H[0], np.where(np.isfinite(h[0]), h[0], big)
+
+    constraint = tc.SecondOrderConstraint(
+        lambda q, qd, qdd: dyn.required_wrench(robot, q, qd, qdd, rates="pose")[0],
+        lambda q: facets(q)[0], lambda q: facets(q)[1], robot.dof,
+        discretization_scheme=tc.DiscretizationType.Collocation)
+    instance = algo.TOPPRA([constraint], toppra.SplineInterpolator(spline.s, spline.poses),
+                           gridpoints=grid, solver_wrapper="seidel")
+    _, sd, _ = instance.compute_parameterization(0, 0)
+    assert sd is not None and np.isfinite(sd).all()
+    return float(np.sum(2 * np.diff(grid) / (sd[:-1] + sd[1:])))
+
+
+@pytest.mark.parametrize("case", ["study", "cogiro"])
+def test_time_optimal_matches_toppra(case: str, request) -> None:
+    robot, path = request.getfixturevalue(case)
+    grid = np.linspace(0.0, PathSpline.through(robot, path).length, 400)
+    reference = _toppra_duration(robot, path, grid)
+    convex = dyn.time_optimal(robot, path, gridpoints=grid)
+    reach = dyn.time_optimal(robot, path, gridpoints=grid, method="reachability")
+    assert convex.success and reach.success
+    # The same greedy scheme as toppra: the same timing.
+    assert reach.duration == pytest.approx(reference, rel=1e-4)
+    # The convex program is the global optimum of the same discretisation.
+    assert convex.duration == pytest.approx(reference, rel=1e-2)
+    assert convex.duration <= reach.duration * (1 + 1e-6)
+    assert convex.times[-1] == convex.duration and (np.diff(convex.times) > 0).all()
+
+
+def _stage_margins(robot: to.CableRobot, result: dyn.TimingResult, x: np.ndarray,
+                   u: np.ndarray) -> np.ndarray:
+    """Capacity margin (N) of every grid point for a profile ``x = s'^2``, ``u = s''``,
+    through the path spline's own derivatives and the Newton-Euler wrench."""
+    spline, s = result.extras["path"], result.s
+    q, dq, ddq = spline(s), spline(s, 1), spline(s, 2)
+    vel = dq * np.sqrt(x)[:, None]
+    acc = dq * u[:, None] + ddq * x[:, None]
+    W = dyn.required_wrench(robot, q, vel, acc, rates="pose")
+    return to.capacity_margin(robot, q, wrench=robot.required_wrench(q) - W)
+
+
+@pytest.mark.parametrize("case", ["study", "cogiro"])
+@pytest.mark.parametrize("method", ["convex", "reachability"])
+def test_one_percent_faster_anywhere_is_infeasible(case: str, method: str, request) -> None:
+    robot, path = request.getfixturevalue(case)
+    res = dyn.time_optimal(robot, path, method=method)
+    assert res.success
+    x, u = res.sd**2, res.sdd
+    typical = float(np.abs(robot.required_wrench(res.poses)).max())
+    assert _stage_margins(robot, res, x, u).min() >= -1e-6 * typical
+    ds = np.diff(res.s)
+    # (The greedy reachability pass can bring the platform to rest inside the path,
+    # where a faster speed is still zero: those points are skipped.)
+    for k in np.flatnonzero(res.sd[1:-1] > 1e-6 * res.sd.max()) + 1:
+        xk = x.copy()
+        xk[k] *= 1.01**2
+        uk = u.copy()
+        uk[k - 1] = (xk[k] - xk[k - 1]) / (2 * ds[k - 1])
+        uk[k] = (xk[k + 1] - xk[k]) / (2 * ds[k])
+        margins = _stage_margins(robot, res, xk, uk)[[k - 1, k]]
+        assert margins.min() < -1e-4 * typical, k
+
+
+def test_limits_bind_and_are_reported(study) -> None:
+    robot, path = study
+    res = dyn.time_optimal(robot, path, v_max=2.0, a_max=1.0)
+    assert res.success
+    assert np.abs(res.velocities).max() <= 2.0 * (1 + 1e-6)
+    assert np.abs(res.accelerations).max() <= 1.0 * (1 + 1e-6)
+    assert res.active_velocity.any() and res.active_acceleration.any()
+    free = dyn.time_optimal(robot, path)
+    assert free.duration < res.duration
+    assert free.active_tension[1:-1].mean() > 0.5  # tension limits bind along most of it
+    assert (free.active_cables.sum(axis=1)[free.active_tension] >= 1).all()
+    T, lb, ub = free.tensions, robot.t_min, robot.t_max
+    assert ((T >= lb - 1e-6 * ub) & (T <= ub * (1 + 1e-9))).all()
+    frame = free.to_frame()
+    assert set(frame["limit"]) <= {"", "tension"}
+    traj = free.trajectory
+    assert traj.duration == pytest.approx(free.duration)
+
+
+def test_highs_through_scipy_gives_the_same_timing(cogiro, monkeypatch) -> None:
+    robot, path = cogiro
+    fast = dyn.time_optimal(robot, path, method="reachability")
+    monkeypatch.setattr(lp_module, "highspy", None)
+    slow = dyn.time_optimal(robot, path, method="reachability")
+    assert slow.duration == pytest.approx(fast.duration, rel=1e-7)
+
+
+def test_paths_that_cannot_be_timed_report_per_point_status(study) -> None:
+    robot, path = study
+    unbounded = dyn.time_optimal(to.presets.algae_harvester(), path)  # t_max = inf
+    assert not unbounded.success and unbounded.duration == np.inf
+    assert (unbounded.status == to.Status.UNBOUNDED).all()
+    # Near a tower's foot: the robot cannot hold the platform even at rest there.
+    bad = np.array([[-3, -4, 1.0], [-30, -20, 0.5], [-44, -29, 0.2]])
+    res = dyn.time_optimal(robot, bad)
+    assert res.duration == np.inf and np.isnan(res.times).all()
+    assert res.status[-1] == to.Status.INFEASIBLE
+    assert set(res.status) <= {to.Status.INFEASIBLE, to.Status.NOT_RUN}
+    for method in ("convex", "reachability"):
+        assert not dyn.time_optimal(robot, bad, method=method).success
+
+
+def test_bad_timing_input_raises(study) -> None:
+    robot, path = study
+    with pytest.raises(to.InvalidInputError, match="poses"):
+        dyn.time_optimal(robot, np.where(np.eye(len(path), 3) > 0, np.nan, path))
+    with pytest.raises(to.InvalidInputError, match="coincide"):
+        dyn.time_optimal(robot, np.vstack([path[:3], path[2:]]))
+    with pytest.raises(to.InvalidInputError, match="poses"):
+        dyn.time_optimal(robot, path[:, :2])
+    with pytest.raises(to.InvalidInputError, match="v_max"):
+        dyn.time_optimal(robot, path, v_max=[1.0, 2.0])
+    with pytest.raises(to.InvalidInputError, match="a_max"):
+        dyn.time_optimal(robot, path, a_max=-1.0)
+    with pytest.raises(to.InvalidInputError, match="gridpoints"):
+        dyn.time_optimal(robot, path, gridpoints=[0.0, 1.0])
+    with pytest.raises(to.InvalidInputError, match="structure"):
+        dyn.time_optimal(robot, path, structure=np.zeros((3, 3, 4)))
+    with pytest.raises(to.InvalidInputError, match="method"):
+        dyn.time_optimal(robot, path, method="fast")
+
+
+# ------------------------------------------------------------------------ facets
+@pytest.mark.parametrize("make", [lambda: to.presets.algae_harvester(t_max=STUDY_T_MAX),
+                                  to.presets.algae_harvester, to.presets.cogiro])
+def test_wrench_facets_describe_the_feasible_set(make) -> None:
+    robot = make()
+    rng = np.random.default_rng(3)
+    pose = robot.default_home() + np.r_[rng.uniform(-1, 1, 3), np.zeros(robot.dof - 3)]
+    H, h = dyn.wrench_facets(robot, pose[None])
+    A = robot.structure_matrices(pose)[0]
+    hi = np.where(np.isfinite(robot.t_max), robot.t_max, robot.t_min + 4 * robot.weight)
+    static = robot.required_wrench(pose)[0]
+    counts = {True: 0, False: 0}
+    for _ in range(300):  # wrenches of random tensions, pushed out or pulled in
+        T = rng.uniform(robot.t_min, hi)
+        w = static + rng.uniform(-1.0, 1.5) * (A @ T - static)
+        margin = to.capacity_margin(robot, pose, wrench=static - w)[0]
+        slack = (H[0] @ w - h[0]).max()
+        scale = float(np.abs(w).max())
+        if abs(margin) < 1e-6 * scale:
+            continue
+        assert (slack <= 1e-9 * scale) == (margin > 0)
+        counts[bool(margin > 0)] += 1
+    assert min(counts.values()) >= 20
+
+
+# --------------------------------------------------------------- dynamic workspace
+def test_dynamic_workspace_of_the_study_robot() -> None:
+    robot = to.presets.algae_harvester()
+    poses = to.workspace.sample_poses([-40, -25, 0.5], [40, 25, 5.0], 400, seed=2)
+    static = to.wrench_feasible_workspace(robot, poses)
+    zero = dyn.dynamic_workspace(robot, poses, 0.0)
+    assert np.array_equal(zero.feasible, static.feasible)
+    assert zero.margin == pytest.approx(static.margin, rel=1e-12, abs=1e-9)
+    small, large = (dyn.dynamic_workspace(robot, poses, a) for a in (0.5, 2.0))
+    assert small.margins.shape == (400, 8)
+    assert not (large.feasible & ~small.feasible).any()  # a larger box, a smaller workspace
+    assert not (small.feasible & ~static.feasible).any()
+    assert large.fraction() < small.fraction() < static.fraction()
+    # Inside the box: any acceleration of a feasible pose can be held.
+    rng = np.random.default_rng(0)
+    idx = np.flatnonzero(small.feasible)[:40]
+    acc = rng.uniform(-0.5, 0.5, (len(idx), 3))
+    sol = to.distribute(robot, poses[idx], wrench=dyn.inertia_wrench(
+        robot, poses[idx], np.zeros(3), acc))
+    assert sol.success.all()
+
+
+def test_dynamic_workspace_with_orientation_dependent_wrenches(cogiro) -> None:
+    robot, _ = cogiro
+    poses = np.column_stack([np.random.default_rng(1).uniform(-2, 2, (30, 2)),
+                             np.full(30, 2.0), np.random.default_rng(2).uniform(-0.2, 0.2,
+                                                                                (30, 3))])
+    res = dyn.dynamic_workspace(robot, poses, 1.0, velocity=[0, 0, 0, 0, 0, 1.0])
+    assert res.extras["pose_dependent"] and res.margins.shape == (30, 8)
+    acc = res.extras["accelerations"]
+    for k in (0, 5):
+        w = dyn.inertia_wrench(robot, poses, [0, 0, 0, 0, 0, 1.0], acc[k])
+        assert res.margins[:, k] == pytest.approx(to.capacity_margin(robot, poses, w),
+                                                  rel=1e-9, abs=1e-6)
+    static = to.wrench_feasible_workspace(robot, poses)
+    assert not (res.feasible & ~static.feasible).any()
+
+
+def test_planar_body_timing() -> None:
+    """A rigid body in a horizontal plane (no gravity): turning costs time too."""
+    robot = to.presets.kntu_planar()
+    straight = np.column_stack([np.linspace(-0.1, 0.1, 15), np.zeros(15), np.zeros(15)])
+    turning = straight.copy()
+    turning[:, 2] = np.linspace(0.0, 0.4, 15)
+    a, b = (dyn.time_optimal(robot, p, v_max=[1.0, 1.0, 2.0]) for p in (straight, turning))
+    assert a.success and b.success
+    assert b.duration > a.duration
+    greedy = dyn.time_optimal(robot, turning, v_max=[1.0, 1.0, 2.0], method="reachability")
+    assert b.duration <= greedy.duration * (1 + 1e-6)
