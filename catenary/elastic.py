@@ -52,6 +52,7 @@ __all__ = [
     "evaluate",
     "flexibility",
     "length_derivative",
+    "power_of_two",
     "profile",
     "span_jacobian",
     "spans",
@@ -94,6 +95,10 @@ _G_SERIES = (
 )
 # Below this |argument| the series are used; 8 terms give full double precision.
 _SERIES_CUT = 0.1
+# The exponent field of an IEEE double, and the range of powers of two used as scales.
+_EXPONENT_BITS = np.int64(0x7FF0000000000000)
+_SMALLEST_NORMAL = 2.0**-1022
+_LARGEST_POWER = 2.0**1023
 
 
 def _poly_u2(coeffs: tuple[float, ...], u2: FloatArray) -> FloatArray:
@@ -160,7 +165,7 @@ class _Branches:
     ``q = asinh(u)/u`` (``u = w L0 rho``), the spans without stretch
     ``x_c, z_c``, and the index sets of the branches scattered in: ``small``
     (series for ``|u| < 0.1``, with ``qm1_small = q - 1`` there), ``opp``
-    (``V_A < 0 < V_B``, with its gathered ``(H, V_B, V_A, w)``) and ``bad``
+    (``V_A < 0 < V_B``, with its gathered ``(H, V_B, V_A, w L0 / H)``) and ``bad``
     (degenerate limits).
     """
 
@@ -168,7 +173,6 @@ class _Branches:
     V_B: FloatArray
     L0: FloatArray
     w: FloatArray
-    inv_EA: FloatArray
     V_A: FloatArray
     T_A: FloatArray
     T_B: FloatArray
@@ -186,9 +190,7 @@ class _Branches:
     bad: NDArray[np.intp] | None = None
 
 
-def _same_sign_branch(
-    H: FloatArray, V_B: FloatArray, L0: FloatArray, w: FloatArray, inv_EA: FloatArray
-) -> _Branches:
+def _same_sign_branch(H: FloatArray, V_B: FloatArray, L0: FloatArray, w: FloatArray) -> _Branches:
     """Spans of every element as if ``V_A`` and ``V_B`` had the same sign.
 
     There ``asinh(a) - asinh(b) = asinh(w L0 rho)``; the series replaces
@@ -215,17 +217,21 @@ def _same_sign_branch(
     z_c = L0 * S / TS
     opp = np.flatnonzero((V_A < 0.0) & (V_B > 0.0))
     return _Branches(
-        H, V_B, L0, w, inv_EA, V_A, T_A, T_B, S, TS, rho, q, HL, x_c, z_c, small, qm1_s, opp
+        H, V_B, L0, w, V_A, T_A, T_B, S, TS, rho, q, HL, x_c, z_c, small, qm1_s, opp
     )
 
 
 def _opposite_sign_branch(b: _Branches) -> None:
-    """Scatter in ``x_c`` where ``V_A < 0 < V_B`` (needs ``w > 0``): the asinh terms add."""
+    """Scatter in ``x_c`` where ``V_A < 0 < V_B`` (needs ``w > 0``): the asinh terms add;
+    ``1/w = L0 / (H span)``, ``span = (V_B - V_A)/H`` (no overflow for tiny ``w``)."""
     opp = b.opp
     if opp.size:
-        h, vb, va, wo = b.H[opp], b.V_B[opp], b.V_A[opp], b.w[opp]
-        b.x_c[opp] = h / wo * (np.arcsinh(vb / h) - np.arcsinh(va / h))
-        b.opp_args = (h, vb, va, wo)
+        h, vb, va = b.H[opp], b.V_B[opp], b.V_A[opp]
+        span = vb / h - va / h  # w L0 / H, no cancellation (opposite signs)
+        # span = 0: |V| below the subnormals of H, a straight bar (mean slope 1).
+        slope = np.where(span > 0, (np.arcsinh(vb / h) - np.arcsinh(va / h)) / span, 1.0)
+        b.x_c[opp] = slope * b.L0[opp]
+        b.opp_args = (h, vb, va, span)
 
 
 def _degenerate_limits(b: _Branches) -> None:
@@ -255,11 +261,11 @@ def _degenerate_limits(b: _Branches) -> None:
 
 
 def _flexibility_terms(b: _Branches) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """``(F_xx, F_xz, F_zz)`` (m/N), flat, from the branches of :func:`evaluate`."""
+    """``(F_xx, F_xz, F_zz)`` without the compliance ``L0/EA``, flat, in m per unit of
+    the (scaled) forces held in ``b``."""
     H, V_A, V_B, T_A, T_B, TS = b.H, b.V_A, b.V_B, b.T_A, b.T_B, b.TS
     TT = T_A * T_B
     H2 = H * H
-    base = b.L0 * b.inv_EA
     F_xz = -b.HL * b.S / (TT * TS)
     # T_A T_B - H^2 written without cancellation.
     VA2, VB2 = V_A * V_A, V_B * V_B
@@ -268,18 +274,39 @@ def _flexibility_terms(b: _Branches) -> tuple[FloatArray, FloatArray, FloatArray
     qm1 = b.q - 1.0
     if b.small.size:
         qm1[b.small] = b.qm1_small
-    F_xx = base + Lrho * (qm1 + prod_m_h2 / TT)
-    F_zz = base + H2 * Lrho / TT
+    F_xx = Lrho * (qm1 + prod_m_h2 / TT)
+    F_zz = H2 * Lrho / TT
     if b.opp_args is not None:
         opp = b.opp
-        h, vb, va, wo = b.opp_args
-        iw = 1.0 / wo
-        F_xx[opp] = base[opp] + (_g(vb / h) + _g(-va / h)) * iw
-        F_zz[opp] = base[opp] + (vb / T_B[opp] - va / T_A[opp]) * iw
+        h, vb, va, span = b.opp_args
+        per_w, bar = b.L0[opp] / h, span == 0  # 1/w = per_w / span; a bar if span = 0
+        F_xx[opp] = np.where(bar, 0.0, (_g(vb / h) + _g(-va / h)) / span) * per_w
+        F_zz[opp] = np.where(bar, 1.0, (vb / T_B[opp] - va / T_A[opp]) / span) * per_w
     if b.bad is not None and b.bad.size:
         hz = b.bad[H[b.bad] == 0.0]
         F_xz[hz] = 0.0
     return F_xx, F_xz, F_zz
+
+
+def power_of_two(scale: ArrayLike) -> FloatArray:
+    """The largest power of two not above ``|scale|``, within ``[2**-1022, 2**1023]``.
+
+    Read off the exponent bits (cheaper than ``np.frexp``). Dividing by it is exact: in
+    its units a computation keeps its rounding, and its fourth powers stay in range.
+
+    Parameters
+    ----------
+    scale : array_like
+        Any shape and unit (0 and subnormals give ``2**-1022``, inf and NaN ``2**1023``).
+
+    Returns
+    -------
+    ndarray
+        Same shape: ``p <= |scale| < 2 p`` where ``scale`` is a normal number.
+    """
+    magnitude = np.abs(np.asarray(scale, dtype=np.float64))
+    p = (magnitude.view(np.int64) & _EXPONENT_BITS).view(np.float64)
+    return np.minimum(np.maximum(p, _SMALLEST_NORMAL), _LARGEST_POWER)
 
 
 @overload
@@ -319,8 +346,7 @@ def evaluate(
 ) -> FullEvaluation | SpansEvaluation:
     """Spans, flexibility and end tensions in one pass (the solvers' hot path).
 
-    Unchecked: the solvers of :mod:`catenary.solve` call it once per Newton
-    iteration on all unconverged cables.
+    Unchecked: the solvers call it once per Newton iteration on all unconverged cables.
 
     Parameters
     ----------
@@ -343,27 +369,35 @@ def evaluate(
 
     Notes
     -----
-    The common case (``V_A``, ``V_B`` of the same sign, ``|u| >= 0.1``) is
-    computed on all elements; the series for small ``u``, the opposite-sign
-    branch and the degenerate limits (``H = 0``, ``S = 0``) are computed only
-    on the index sets that need them and scattered in, so no element pays for
-    a branch it does not use.
+    The common case (``V_A``, ``V_B`` of the same sign, ``|u| >= 0.1``) is computed on
+    all elements; the series for small ``u``, the opposite-sign branch and the
+    degenerate limits (``H = 0``, ``S = 0``) only on the index sets that need them,
+    scattered in. Forces are taken in units of a power of two where any is extreme.
     """
     arrays = np.broadcast_arrays(H, V_B, L0, w, inv_EA)
     shape = arrays[0].shape
-    flat = (np.asarray(a, dtype=np.float64).reshape(-1) for a in arrays)
+    Hf, Vf, Lf, wf, ief = (np.asarray(a, dtype=np.float64).reshape(-1) for a in arrays)
     with np.errstate(all="ignore"):
-        b = _same_sign_branch(*flat)
+        # Forces in units of p = power_of_two(scale) (exact, same rounding): all at most
+        # 4 p; newtons where all are moderate (their fourth powers in range).
+        scale = np.maximum(np.abs(Hf), np.maximum(np.abs(Vf), wf * Lf))
+        moderate = scale.size == 0 or (1e-60 < scale.min() and scale.max() < 1e60)
+        p = 1.0 if moderate else power_of_two(scale)
+        inv_p = 1.0 / p
+        b = _same_sign_branch(Hf * inv_p, Vf * inv_p, Lf, wf * inv_p)
         _opposite_sign_branch(b)
         _degenerate_limits(b)
-        x = b.HL * b.inv_EA + b.x_c
-        z = 0.5 * b.L0 * b.S * b.inv_EA + b.z_c
+        x = (b.HL * ief) * p + b.x_c
+        z = (0.5 * Lf * b.S * ief) * p + b.z_c
+        T_A, T_B = b.T_A * p, b.T_B * p
         if not jacobian:
-            x, z, x_c, T_A, T_B = _shaped(shape, x, z, b.x_c, b.T_A, b.T_B)
+            x, z, x_c, T_A, T_B = _shaped(shape, x, z, b.x_c, T_A, T_B)
             return x, z, None, None, None, x_c, T_A, T_B
-        F_xx, F_xz, F_zz = _flexibility_terms(b)
+        base = Lf * ief
+        F_xx, F_xz, F_zz = (f * inv_p for f in _flexibility_terms(b))
+        F_xx, F_zz = base + F_xx, base + F_zz
     x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B = _shaped(
-        shape, x, z, F_xx, F_xz, F_zz, b.x_c, b.T_A, b.T_B
+        shape, x, z, F_xx, F_xz, F_zz, b.x_c, T_A, T_B
     )
     return x, z, F_xx, F_xz, F_zz, x_c, T_A, T_B
 
@@ -523,7 +557,7 @@ def stretched_length(
         S = V_A + V_B
         TS = T_A + T_B
         x_c = evaluate(H, V_B, L0, w, inv_EA, jacobian=False)[5]
-        integral = 0.25 * L0 * (np.where(TS > 0, S * S / TS, 0.0) + TS) + 0.5 * H * x_c
+        integral = 0.25 * L0 * (np.where(TS > 0, S * (S / TS), 0.0) + TS) + 0.5 * H * x_c
         return L0 + np.where(inv_EA == 0.0, 0.0, integral * inv_EA)
 
 

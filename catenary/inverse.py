@@ -7,7 +7,9 @@ Every cable hangs as an elastic catenary in its vertical plane
     The reference study's decoupled convention: tensions from the straight-line
     distribution, each imposed as the tension magnitude at the drawing point of the
     taut catenary. Reproduces the study's lengths; the catenary end forces then do not
-    balance the load (see ``equilibrium_residual``).
+    balance the load (see ``equilibrium_residual``), by construction: a pose's
+    ``converged`` status says that every catenary was solved, not that the platform is
+    in equilibrium.
 ``"coupled"``
     Physically consistent: the catenary end forces at the platform balance the load
     (forces and moments), with the tensions chosen by the same objectives as
@@ -67,9 +69,12 @@ class InverseKinematicsResult:
     platform_forces : ndarray, shape (N, m, 3)
         Force each cable applies on the platform, base frame (N).
     equilibrium_residual : ndarray, shape (N,)
-        Norm of the wrench (cable forces, their moments for rotating platforms, gravity
-        and the external wrench) left on the platform, restricted to the robot's
-        degrees of freedom (N, N m).
+        The force imbalance of the platform: norm of the wrench (catenary end forces,
+        their moments for rotating platforms, gravity and the external wrench) left on
+        the platform, restricted to the robot's degrees of freedom (N, N m); NaN where
+        the pose failed. Below ``1e-6`` of the load where the coupled model converged;
+        large in the thesis model, which imposes straight-cable tensions on sagging
+        cables (the study's convention: its numbers are reproduced, not corrected).
     iterations : ndarray of int, shape (N,)
         Sequential-convex-programming iterations per pose (linearised subproblems
         solved after the straight-line start); 0 for the thesis model.
@@ -77,10 +82,16 @@ class InverseKinematicsResult:
         Newton (and fallback) iterations of the single-cable solver, summed over the
         SCP iterations.
     status : ndarray of str, shape (N,)
-        ``Status.CONVERGED``; ``Status.INFEASIBLE`` (no tensions within the bounds
-        balance the load); ``"catenary_failed"`` (no taut catenary carries the
-        tension); ``Status.MAX_ITER`` (the SCP did not settle within its iteration
-        limit).
+        ``Status.CONVERGED``: every cable's catenary solve converged (finite forces
+        whose catenary spans the cable's chord and carries its tension), and for the
+        coupled model the sequential convex programming settled, so the platform is
+        in equilibrium. For the thesis model it means exactly that the catenary
+        solves converged: the force imbalance is in ``equilibrium_residual``.
+        Otherwise ``Status.INFEASIBLE`` (no tensions within the bounds balance the
+        load), another status of the straight-line distribution where it failed
+        (thesis model, e.g. ``Status.SOLVER_ERROR``), ``"catenary_failed"`` (no taut
+        catenary carries the tension, or its solve did not converge) or
+        ``Status.MAX_ITER`` (the SCP did not settle within its iteration limit).
     model : str
         ``"thesis"`` or ``"coupled"``.
     solve_time : float
@@ -176,8 +187,8 @@ def inverse_kinematics(
     Returns
     -------
     InverseKinematicsResult
-        Lengths (N, m), tensions at both ends (N, m), platform forces (N, m, 3),
-        equilibrium residual (N,), iteration counts and per-pose status.
+        Lengths, end tensions, platform forces, equilibrium residual, iterations and
+        per-pose status (thesis model: converged catenaries, equilibrium not imposed).
 
     Notes
     -----
@@ -204,7 +215,7 @@ def inverse_kinematics(
                                  robot.required_wrench(p, wrench), (w, EA), tol=tol,
                                  max_iter=max_iter, options=options).solve(tensions, attempt)
     else:
-        solution = _thesis(planes, straight.tensions, straight.success, w, EA)
+        solution = _thesis(planes, straight.tensions, straight.status, w, EA)
     return _result(robot, p, wrench, planes, solution, model, time.perf_counter() - t0)
 
 
@@ -242,14 +253,20 @@ def _coupled_start(robot: CableRobot, poses: FloatArray, straight: TensionSoluti
     return np.where(given[:, None], start, tensions), attempt | given
 
 
-def _thesis(planes: CablePlanes, tensions: FloatArray, attempt: NDArray[np.bool_],
+def _thesis(planes: CablePlanes, tensions: FloatArray, straight_status: NDArray[np.str_],
             w: float, EA: float) -> CatenarySolution:
-    """The thesis convention: taut catenaries with the drawing-point tensions of the
-    poses ``attempt``."""
+    """The thesis convention: taut catenaries with the drawing-point tensions (N, m) of
+    the poses whose straight-line distribution is optimal.
+
+    The status of a pose is ``CONVERGED`` exactly where every catenary solve converged
+    (``CATENARY_FAILED`` elsewhere), or that of its straight-line distribution where
+    this one failed; equilibrium is not part of it.
+    """
     N, m = planes.x.shape
     H, V_A, V_B, L0 = (np.full((N, m), np.nan) for _ in range(4))
-    status = status_array(N, Status.INFEASIBLE)
-    status[attempt] = Status.CONVERGED
+    attempt = np.asarray(straight_status == Status.OPTIMAL, dtype=bool)
+    status = status_array(N, Status.CONVERGED)
+    status[~attempt] = np.asarray(straight_status)[~attempt]
     cat_its = np.zeros((N, m), np.int64)
     idx = np.flatnonzero(attempt)
     if idx.size:

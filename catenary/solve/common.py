@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..elastic import evaluate
 from ..errors import InvalidCableError
 
 if TYPE_CHECKING:
@@ -32,7 +33,9 @@ __all__ = [
     "ForcesResult",
     "LengthResult",
     "bracketed_newton",
+    "certify_spans",
     "prepare",
+    "selection",
     "status_array",
 ]
 
@@ -48,11 +51,17 @@ NOT_CONVERGED = "not_converged"
 #: Numpy unicode dtype of the status arrays (fits the longest status).
 STATUS_DTYPE = "<U13"
 EPS = np.finfo(np.float64).eps
-#: Residual (relative to the lengths or the tension) above which a small Newton
-#: step is not trusted as convergence.
+#: Largest span residual, relative to the chord, of a cable reported converged: the
+#: solvers' stopping test and the final certificate (:func:`certify_spans`).
 RES_TOL = 1e-8
 #: Relative error of the prescribed tension above which a root is rejected.
 T_TOL = 1e-9
+
+
+def selection(mask: NDArray[np.bool_]) -> NDArray[np.intp] | slice:
+    """Where ``mask`` holds, to gather and scatter with: its indices, or ``slice(None)``
+    when it holds everywhere (the usual batch: views, no copies)."""
+    return slice(None) if mask.all() else np.flatnonzero(mask)
 
 
 def status_array(n: int, fill: str) -> NDArray[np.str_]:
@@ -196,6 +205,8 @@ def bracketed_newton(
     x0: FloatArray,
     *,
     xtol: float = 4 * EPS,
+    atol: float = 0.0,
+    ftol: float = 0.0,
     max_iter: int = 200,
 ) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.int64]]:
     """Roots of increasing functions ``f`` (one per element) on ``[lo, hi]``.
@@ -213,8 +224,13 @@ def bracketed_newton(
         Brackets and starting points (same unit as the root).
     xtol : float
         Relative tolerance on the bracket width or the step.
+    atol : float
+        Absolute tolerance added to ``xtol`` (for roots that may be near 0).
+    ftol : float
+        Stop where ``|f| <= ftol`` (for functions known only to a few digits
+        short of full precision).
     max_iter : int
-        Iteration limit.
+        Iteration limit (a hard cap: ``done`` is false where it was reached).
 
     Returns
     -------
@@ -237,7 +253,7 @@ def bracketed_newton(
         tt = t[idx]
         val, der = f(tt, idx)
         its[idx] += 1
-        exact = val == 0
+        exact = np.abs(val) <= ftol
         neg = val < 0
         lo[idx] = np.where(neg, tt, lo[idx])
         hi[idx] = np.where(~neg & ~exact, tt, hi[idx])
@@ -251,10 +267,48 @@ def bracketed_newton(
         width = b - a
         fin = (
             exact
-            | (width <= xtol * np.maximum(np.abs(a), np.abs(b)))
-            | (np.abs(tn - tt) <= xtol * np.abs(tt))
+            | (width <= xtol * np.maximum(np.abs(a), np.abs(b)) + atol)
+            | (np.abs(tn - tt) <= xtol * np.abs(tt) + atol)
         )
         t[idx] = np.where(exact, tt, tn)
         done[idx] = fin
         idx = idx[~fin]
     return t, done, its
+
+
+# ----------------------------------------------------------------------------
+# the certificate of a converged cable
+
+
+def certify_spans(
+    x: FloatArray,
+    z: FloatArray,
+    H: FloatArray,
+    V_B: FloatArray,
+    L0: FloatArray,
+    w: FloatArray,
+    inv_EA: FloatArray,
+) -> NDArray[np.bool_]:
+    """Where the end forces are finite and their catenary spans the chord.
+
+    The certificate of a ``"converged"`` cable: ``H >= 0``, ``V_B`` and ``L0 > 0``
+    finite, and the spans of :func:`catenary.elastic.evaluate` within
+    ``RES_TOL`` of the chord ``hypot(x, z)`` of the targets ``(x, z)``.
+
+    Parameters
+    ----------
+    x, z : ndarray, shape ``(n,)``
+        Target spans (m).
+    H, V_B, L0, w, inv_EA : ndarray, shape ``(n,)``
+        End forces (N), unstretched length (m), weight per length (N/m) and
+        axial compliance (1/N).
+
+    Returns
+    -------
+    ndarray of bool, shape ``(n,)``
+    """
+    with np.errstate(all="ignore"):
+        finite = np.isfinite(H) & np.isfinite(V_B) & np.isfinite(L0) & (H >= 0) & (L0 > 0)
+        xs, zs, *_ = evaluate(H, V_B, L0, w, inv_EA, jacobian=False)
+        tol = RES_TOL * np.hypot(x, z)
+        return finite & (np.abs(xs - x) <= tol) & (np.abs(zs - z) <= tol)

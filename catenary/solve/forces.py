@@ -1,9 +1,12 @@
 """Forward problem: unstretched length -> end forces (unknowns H, V_B).
 
 Newton on the two span equations with the analytic flexibility matrix of
-:func:`catenary.elastic.evaluate`, from a closed-form guess; the few cables
-Newton leaves unconverged are finished by a nested bracketing solve.
-Weightless and vertical cables are solved in closed form.
+:func:`catenary.elastic.evaluate`, from a closed-form guess, on
+nondimensional data; the few cables Newton leaves unconverged are solved
+through one monotone equation in the half-difference of the hyperbolic end
+angles (:class:`_EndAngleEquation`) and polished by Newton. Weightless and
+vertical cables are solved in closed form. Every answer is certified
+(:func:`catenary.solve.common.certify_spans`) before it is reported.
 """
 
 from __future__ import annotations
@@ -11,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..elastic import axial_compliance, evaluate
+from ..elastic import axial_compliance, evaluate, power_of_two
 from .common import (
     CONVERGED,
     EPS,
@@ -20,10 +23,13 @@ from .common import (
     NOT_CONVERGED,
     RES_TOL,
     SLACK,
+    STATUS_DTYPE,
     FloatArray,
     ForcesResult,
     bracketed_newton,
+    certify_spans,
     prepare,
+    selection,
     status_array,
 )
 
@@ -64,17 +70,18 @@ def _initial_forces(
     if np.any(slack):
         i = np.flatnonzero(slack)
         xs, zs, Ls, ws = x[i], z[i], L0[i], w[i]
-        R = np.sqrt((Ls - zs) * (Ls + zs)) / xs
-        logR = np.log(R)
-        lam = np.maximum(np.sqrt(6.0 * (R - 1.0)), logR + np.log(2.0 * logR + 2.0))
-        lam = np.where(R < 1.2, np.sqrt(6.0 * (R - 1.0)), lam)
-        for _ in range(30):
-            # log(sinh(lam)/lam), overflow-safe for large lam
-            lsh = lam + np.log1p(-np.exp(-2.0 * lam)) - np.log(2.0) - np.log(lam)
-            d = 1.0 / np.tanh(lam) - 1.0 / lam
-            lam = np.maximum(lam - (lsh - logR) / d, 0.5 * lam)
-        Hs = ws * xs / (2.0 * lam)
-        Vs = 0.5 * ws * (zs / np.tanh(lam) + Ls)
+        with np.errstate(all="ignore"):
+            R = np.sqrt(Ls - zs) * np.sqrt(Ls + zs) / xs
+            logR = np.log(R)
+            lam = np.maximum(np.sqrt(6.0 * (R - 1.0)), logR + np.log(2.0 * logR + 2.0))
+            lam = np.where(R < 1.2, np.sqrt(6.0 * (R - 1.0)), lam)
+            for _ in range(30):
+                # log(sinh(lam)/lam), overflow-safe for large lam
+                lsh = lam + np.log1p(-np.exp(-2.0 * lam)) - np.log(2.0) - np.log(lam)
+                d = 1.0 / np.tanh(lam) - 1.0 / lam
+                lam = np.maximum(lam - (lsh - logR) / d, 0.5 * lam)
+            Hs = ws * xs / (2.0 * lam)
+            Vs = 0.5 * ws * (zs / np.tanh(lam) + Ls)
         # If stretch matters, keep the taut guess where it is the better one.
         H[i] = np.where(np.isfinite(Hs), Hs, H[i])
         V[i] = np.where(np.isfinite(Vs), Vs, V[i])
@@ -120,106 +127,103 @@ def _newton_forces(
         )
         H[idx] = np.where(ok, hn, h)
         V[idx] = np.where(ok, vn, v)
-        fit = (np.abs(rx) <= RES_TOL * (x[idx] + l0)) & (
-            np.abs(rz) <= RES_TOL * (np.abs(z[idx]) + l0)
-        )
-        fin = ok & ((small_step & fit) | tiny_res)
+        # The spans must fit the chord (the certificate), whatever the length.
+        tol = RES_TOL * np.hypot(x[idx], z[idx])
+        fit = (np.abs(rx) <= tol) & (np.abs(rz) <= tol)
+        fin = ok & fit & (small_step | tiny_res)
         conv[idx] = fin
-        # Non-finite steps leave Newton for the fallback.
-        idx = idx[~fin & ok]
+        # Non-finite steps, and small steps that leave the residual large (a
+        # residual at rounding level above the tolerance), leave Newton.
+        idx = idx[~fin & ok & ~(small_step & ~fit)]
     return H, V, conv, its
 
 
-class _NestedForces:
-    """Bracketing fallback for x > 0, w > 0 (slow but sure).
+# Bounds of log(d) in the fallback: d = 1e-300 (straight to rounding) to 800 (exp(-d)
+# underflows, the cable hangs vertically to rounding).
+_LOG_D_MIN = float(np.log(1e-300))
+_LOG_D_MAX = float(np.log(800.0))
 
-    For fixed H the z-equation is increasing in V_B, so V_B(H) is found on a
-    bracket (:meth:`vertical_force`); the reduced x(H, V_B(H)) is increasing
-    in H (its derivative is det(F)/F_zz > 0), so H is found on a bracket in
-    log H (:meth:`span_residual`). Both 1-D solves are safeguarded
-    Newton-bisection. The last V_B found per cable warm-starts the next
-    inner solve; iterations of the inner solves are counted per cable.
+
+class _EndAngleEquation:
+    """The span equations of ``x > 0, w > 0`` cables as one decreasing equation in ``d``.
+
+    With lengths in units of ``L0`` and forces in units of the weight
+    ``W = w L0`` (``X = x/L0``, ``Z = z/L0``, ``e = W/EA``), and ``a, b`` the
+    hyperbolic end angles (``V_A = H sinh(a)``, ``V_B = H sinh(b)``), the
+    half-difference ``d = (b - a)/2`` fixes the rest: ``tanh((a+b)/2) = t(d) =
+    2 Z tanh(d)/(2 tanh(d) + e)``, and the horizontal span reads
+    ``phi(d) = (d + e/2) sqrt(1 - t^2)/sinh(d) = X``. ``phi`` is a product of two
+    positive decreasing functions of ``d`` that falls from ``+inf`` (or
+    ``sqrt(1 - Z^2) > X`` if inextensible) to 0, so the root is unique and
+    bracketed; :meth:`forces` turns it into ``(H, V_B)``.
     """
 
-    def __init__(
-        self,
-        x: FloatArray,
-        z: FloatArray,
-        L0: FloatArray,
-        w: FloatArray,
-        inv_EA: FloatArray,
-        V0: FloatArray,
-    ) -> None:
-        self.x, self.z, self.L0, self.w, self.inv_EA = x, z, L0, w, inv_EA
-        self.V_cache = np.where(np.isfinite(V0), V0, 0.5 * w * L0)
-        self.its = np.zeros(x.size, np.int64)
-        self.all_idx = np.arange(x.size)
+    def __init__(self, x: FloatArray, z: FloatArray, L0: FloatArray, w: FloatArray,
+                 inv_EA: FloatArray) -> None:
+        self.W = w * L0
+        self.X, self.Z, self.e = x / L0, z / L0, self.W * inv_EA
 
-    def vertical_force(
-        self, h: FloatArray, sel: NDArray[np.intp]
-    ) -> tuple[FloatArray, NDArray[np.int64]]:
-        """``V_B`` (N) solving the z-equation at horizontal tension ``h`` for cables ``sel``."""
-        zs, ls, ws, ie = self.z[sel], self.L0[sel], self.w[sel], self.inv_EA[sel]
-        m0 = self.V_cache[sel] - 0.5 * ws * ls
-        M = np.abs(m0) + h + ws * ls + 1.0
-        # Expand [-M, M] until it brackets the z target.
-        for _ in range(200):
-            z_hi = evaluate(h, M + 0.5 * ws * ls, ls, ws, ie, jacobian=False)[1]
-            z_lo = evaluate(h, -M + 0.5 * ws * ls, ls, ws, ie, jacobian=False)[1]
-            grow = (z_hi < zs) | (z_lo > zs)
-            if not np.any(grow):
-                break
-            M = np.where(grow, 4.0 * M, M)
+    def _terms(self, d: FloatArray, j: NDArray[np.intp] | slice) -> tuple[FloatArray, ...]:
+        """``(t, sqrt(1 - t^2), tanh(d), 1/sinh(d))`` for the cables ``j``."""
+        th = np.tanh(d)
+        t = 2.0 * self.Z[j] * th / (2.0 * th + self.e[j])
+        root = np.sqrt(np.maximum((1.0 - t) * (1.0 + t), 0.0))
+        inv_sinh = 2.0 * np.exp(-d) / -np.expm1(-2.0 * d)  # no overflow at large d
+        return t, root, th, inv_sinh
 
-        def fz(m: FloatArray, j: NDArray[np.intp]) -> tuple[FloatArray, FloatArray]:
-            _, zz, _, _, fzz, *_ = evaluate(h[j], m + 0.5 * ws[j] * ls[j], ls[j], ws[j], ie[j])
-            return zz - zs[j], fzz
-
-        m, _, it = bracketed_newton(fz, -M, M, m0)
-        V = m + 0.5 * ws * ls
-        self.V_cache[sel] = V
-        return V, it
-
-    def span_residual(self, t: FloatArray, j: NDArray[np.intp]) -> tuple[FloatArray, FloatArray]:
-        """Reduced x-residual (m) and its derivative in ``t = log H`` for cables ``j``."""
-        sel = self.all_idx[j]
-        h = np.exp(t)
-        V, it = self.vertical_force(h, sel)
-        self.its[sel] += it
-        xs, _, fxx, fxz, fzz, *_ = evaluate(h, V, self.L0[sel], self.w[sel], self.inv_EA[sel])
+    def __call__(self, u: FloatArray, j: NDArray[np.intp]) -> tuple[FloatArray, FloatArray]:
+        """``X - phi(d)`` (increasing) and its derivative in ``u = log(d)``."""
         with np.errstate(all="ignore"):
-            dxdh = (fxx * fzz - fxz * fxz) / fzz
-        return xs - self.x[sel], dxdh * h
+            d = np.exp(u)
+            e = self.e[j]
+            t, root, th, inv_sinh = self._terms(d, j)
+            A = (d + 0.5 * e) * inv_sinh
+            dA = (1.0 - (d + 0.5 * e) / th) * inv_sinh
+            dt = 2.0 * self.Z[j] * e / (np.cosh(d) * (2.0 * th + e)) ** 2
+            d_root = np.where(root > 0.0, -t * dt / root, -np.inf)
+            return self.X[j] - A * root, -d * (dA * root + A * d_root)
 
-    def bracket_log_h(self, Hg: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Bracket ``[t_lo, t_hi]`` of ``log H`` around the guess ``Hg`` (N)."""
-        all_idx = self.all_idx
-        tlo = np.log(Hg) - 1.0
-        thi = np.log(Hg) + 1.0
-        for _ in range(100):
-            flo = self.span_residual(tlo, all_idx)[0]
-            bad = flo > 0
-            if not np.any(bad):
+    def bracket(self, u0: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """``[lo, hi]`` in ``log(d)`` around ``u0`` with a sign change (capped widening)."""
+        idx = np.arange(u0.size)
+        lo, hi = u0 - 1.0, u0 + 1.0
+        step = 2.0
+        for _ in range(12):  # steps double: 12 of them span every double
+            low = self(lo, idx)[0] > 0.0
+            high = self(hi, idx)[0] < 0.0
+            if not (low.any() or high.any()):
                 break
-            tlo = np.where(bad, tlo - 5.0, tlo)
-        for _ in range(100):
-            fhi = self.span_residual(thi, all_idx)[0]
-            bad = fhi < 0
-            if not np.any(bad):
-                break
-            thi = np.where(bad, thi + 5.0, thi)
-        return tlo, thi
+            lo = np.where(low, np.maximum(lo - step, _LOG_D_MIN), lo)
+            hi = np.where(high, np.minimum(hi + step, _LOG_D_MAX), hi)
+            step *= 2.0
+        return lo, hi
 
-    def solve(
-        self, H0: FloatArray
-    ) -> tuple[FloatArray, FloatArray, NDArray[np.bool_], NDArray[np.int64]]:
-        """``(H, V_B, done, iterations)`` starting from the guess ``H0`` (N)."""
-        Hg = np.where(np.isfinite(H0) & (H0 > 0), H0, self.w * self.L0)
-        tlo, thi = self.bracket_log_h(Hg)
-        t, done, it = bracketed_newton(self.span_residual, tlo, thi, np.log(Hg), xtol=1e-16)
-        H = np.exp(t)
-        V, _ = self.vertical_force(H, self.all_idx)
-        return H, V, done, self.its + it
+    def forces(self, u: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """``(H, V_B)`` in the units of the data at the root ``u = log(d)``."""
+        with np.errstate(all="ignore"):
+            t, root, th, inv_sinh = self._terms(np.exp(u), slice(None))
+            return self.W * (0.5 * root * inv_sinh), self.W * (0.5 + 0.5 * t / th)
+
+
+def _end_angle_forces(
+    x: FloatArray, z: FloatArray, L0: FloatArray, w: FloatArray, inv_EA: FloatArray,
+    H0: FloatArray,
+) -> tuple[FloatArray, FloatArray, NDArray[np.int64]]:
+    """Fallback for ``x > 0, w > 0``: ``(H, V_B, iterations)`` from one equation in ``d``.
+
+    A safeguarded Newton-bisection on :class:`_EndAngleEquation` in ``log(d)``,
+    from ``d ~ w x/(2 H0)`` (``H0`` the closed-form guess, N); at most 12
+    bracket widenings and 100 iterations. Newton on the span equations
+    polishes the result (near-taut cables lose digits in ``d``).
+    """
+    eq = _EndAngleEquation(x, z, L0, w, inv_EA)
+    with np.errstate(all="ignore"):
+        d0 = 0.5 * w * x / H0
+    u0 = np.clip(np.log(np.where(np.isfinite(d0) & (d0 > 0), d0, 1.0)), _LOG_D_MIN, _LOG_D_MAX)
+    lo, hi = eq.bracket(u0)
+    u, _, its = bracketed_newton(eq, lo, hi, u0, atol=1e-15, max_iter=100)
+    H, V = eq.forces(u)
+    return H, V, its + 12
 
 
 def _weightless_forces(
@@ -273,19 +277,57 @@ def _general_forces(
 ) -> tuple[FloatArray, FloatArray, NDArray[np.int64], NDArray[np.str_]]:
     """Cables with ``x > 0``, ``w > 0``: ``(H, V_B, iterations, status)``.
 
-    Closed-form guess, Newton, and the nested bracketing solve for the rest.
+    Nondimensional: lengths in units of the chord and forces in units of the
+    weight ``w max(chord, L0)`` or of the stretching force ``EA (chord/L0 - 1)``,
+    whichever is larger (both rounded to powers of two, so the rounding is that
+    of SI units). Closed-form guess and Newton; the cables Newton leaves are
+    solved by :func:`_end_angle_forces` and polished by Newton again.
+    Forces that do not fit in a double are ``"not_converged"``.
     """
+    c = np.hypot(x, z)
+    stretching = np.where(c > L0, (c - L0) / (L0 * inv_EA), 0.0)
+    force_scale = np.maximum(w * np.maximum(c, L0), stretching)
+    ell, F = power_of_two(c), power_of_two(force_scale)
+    xs, zs, Ls = x / ell, z / ell, L0 / ell
+    ws, ies = (w / F) * ell, inv_EA * F
+    # Forces, weight, compliance or stretch under the weight beyond the double range
+    # in these units (inf or NaN here): no answer.
+    fine = np.isfinite(force_scale) & np.isfinite(ws * ies)
+    if fine.all():
+        H, V, conv, its = _scaled_forces(xs, zs, Ls, ws, ies, rtol, max_iter)
+    else:
+        n = x.size
+        H, V = np.full(n, np.nan), np.full(n, np.nan)
+        its = np.zeros(n, np.int64)
+        conv = np.zeros(n, bool)
+        s = np.flatnonzero(fine)
+        H[s], V[s], conv[s], its[s] = _scaled_forces(
+            xs[s], zs[s], Ls[s], ws[s], ies[s], rtol, max_iter)
+    st = np.where(conv, CONVERGED, NOT_CONVERGED).astype(STATUS_DTYPE)
+    return H * F, V * F, its, st
+
+
+def _scaled_forces(
+    x: FloatArray,
+    z: FloatArray,
+    L0: FloatArray,
+    w: FloatArray,
+    inv_EA: FloatArray,
+    rtol: float,
+    max_iter: int,
+) -> tuple[FloatArray, FloatArray, NDArray[np.bool_], NDArray[np.int64]]:
+    """:func:`_general_forces` on nondimensional data: ``(H, V_B, converged, iterations)``."""
     H0, V0 = _initial_forces(x, z, L0, w, inv_EA)
     H, V, conv, its = _newton_forces(x, z, L0, w, inv_EA, H0, V0, rtol, max_iter)
-    st = np.where(conv, CONVERGED, NOT_CONVERGED)
-    if not np.all(conv):
-        f = np.flatnonzero(~conv)
-        nested = _NestedForces(x[f], z[f], L0[f], w[f], inv_EA[f], V0[f])
-        Hf, Vf, okf, itf = nested.solve(H0[f])
+    f = np.flatnonzero(~conv)
+    if f.size:
+        Hf, Vf, itf = _end_angle_forces(x[f], z[f], L0[f], w[f], inv_EA[f], H0[f])
+        Hf, Vf, conv[f], itp = _newton_forces(
+            x[f], z[f], L0[f], w[f], inv_EA[f], Hf, Vf, rtol, max_iter
+        )
         H[f], V[f] = Hf, Vf
-        its[f] += itf
-        st[f] = np.where(okf, CONVERGED, NOT_CONVERGED)
-    return H, V, its, st
+        its[f] += itf + itp
+    return H, V, conv, its
 
 
 def solve_forces_flat(
@@ -327,8 +369,8 @@ def solve_forces_flat(
     if np.any(wz):
         Hw, Vw, st = _weightless_forces(x, z, L0, inv_EA, c)
         H, V, status = np.where(wz, Hw, H), np.where(wz, Vw, V), np.where(wz, st, status)
-    # Spans below 1e-15 of the cable size count as vertical (their H is below rounding).
-    vert = (x <= 1e-15 * (c + L0)) & ~wz
+    # Spans below 1e-15 of the chord count as vertical (their H is below rounding).
+    vert = (x <= 1e-15 * c) & ~wz
     if np.any(vert):
         Hv, Vv, st = _vertical_forces(z, L0, w, inv_EA)
         H, V, status = np.where(vert, Hv, H), np.where(vert, Vv, V), np.where(vert, st, status)
@@ -337,12 +379,23 @@ def solve_forces_flat(
     # Inextensible cables cannot span a chord as long as themselves.
     infeas = gen & (inv_EA == 0.0) & (L0 <= c)
     status[infeas] = INFEASIBLE
-    gi = np.flatnonzero(gen & ~infeas)
-    if gi.size:
-        H[gi], V[gi], its[gi], status[gi] = _general_forces(
-            x[gi], z[gi], L0[gi], w[gi], inv_EA[gi], rtol, max_iter
+    general = gen & ~infeas
+    if general.any():
+        s = selection(general)
+        H[s], V[s], its[s], status[s] = _general_forces(
+            x[s], z[s], L0[s], w[s], inv_EA[s], rtol, max_iter
         )
-    converged = (status == CONVERGED) | (status == SLACK)
+    # The certificate: finite forces whose catenary spans the chord (else no answer).
+    converged = status == CONVERGED
+    if converged.any():
+        s = selection(converged)
+        certified = np.zeros(n, bool)
+        certified[s] = certify_spans(x[s], z[s], H[s], V[s], L0[s], w[s], inv_EA[s])
+        status[converged & ~certified] = NOT_CONVERGED
+    unsolved = (status != CONVERGED) & (status != SLACK)
+    if unsolved.any():
+        H[unsolved], V[unsolved] = np.nan, np.nan
+    converged = ~unsolved
     return H, V, its, converged, status
 
 
@@ -374,7 +427,7 @@ def solve_forces(
         Newton stops once its step is below ``rtol`` relative to the forces;
         with quadratic convergence the result is then accurate to rounding.
     max_iter : int
-        Newton iterations before the bracketing fallback takes over.
+        Newton iterations before the fallback takes over (and of its polish).
 
     Returns
     -------
@@ -390,15 +443,22 @@ def solve_forces(
     -----
     Newton on ``(H, V_B)`` with the analytic flexibility matrix, from a
     parabolic (taut) or inextensible-catenary (slack) closed-form guess,
-    with H kept positive. Cables Newton leaves unconverged are finished by a
-    nested bracketing solve (see ``_NestedForces``). Vertical (``x = 0``) and
-    weightless (``w = 0``) cables are solved in closed form.
+    with H kept positive, in units of the chord and of the cable's force
+    scale. Cables Newton leaves unconverged are solved through one monotone
+    equation in the end angles (see ``_EndAngleEquation``) and polished.
+    Vertical (``x <= 1e-15`` chord) and weightless (``w = 0``) cables are
+    solved in closed form. A cable is reported converged only if its forces
+    are finite and its spans within ``1e-8`` of the chord of ``(x, z)``;
+    otherwise ``"not_converged"`` with NaN forces (see :mod:`catenary.solve`).
     """
     shape, (xf, zf, lf, wf, ef) = prepare(x, z, L0, w, EA, "L0")
-    H, V, its, conv, status = solve_forces_flat(xf, zf, lf, wf, ef, rtol, max_iter)
+    # Overflow is expected at extreme data: the certificate checks every result.
+    with np.errstate(all="ignore"):
+        H, V, its, conv, status = solve_forces_flat(xf, zf, lf, wf, ef, rtol, max_iter)
+        V_A = V - wf * lf
     return ForcesResult(
         H=H.reshape(shape),
-        V_A=(V - wf * lf).reshape(shape),
+        V_A=V_A.reshape(shape),
         V_B=V.reshape(shape),
         iterations=its.reshape(shape),
         converged=conv.reshape(shape),

@@ -5,20 +5,23 @@ Method
 Unknowns ``(H, V_B, L0)``, parametrised so that the tension condition holds
 exactly: the direction angle of the cable at the given end and ``L0``
 (``end="B"``/``"A"``), or ``V_B`` and ``L0`` with ``H = T`` (``end="H"``).
-Newton on the two span equations starts from a straight cable along the
-chord with first-order sag corrections (``_initial_length``; steep cables
-given ``H`` start from the catenary in end angles); for taut cables this
-guess is within ``O((w c / T)^2)`` of the answer, so two or three steps
-reach full precision. The Jacobian stays regular for weightless and very
-light cables, whose sag is below the rounding of ``L0``. At a root the sign
-of the Jacobian determinant is that of ``dT/dL0`` at fixed geometry and
-tells the taut branch (negative) from the sagging one; cables that reach the
-sagging branch or do not converge are solved by a bracketing search in
-``L0`` built on the forward solver (:mod:`catenary.solve.length_bracket`),
-which also detects infeasibility, and polished by the same Newton. A cable
-is reported converged only if its span residuals are below ``1e-8`` of its
-size and its end tension is within ``1e-9`` of the prescribed one. Vertical
-cables are solved in closed form.
+The data are nondimensional: lengths in units of the chord, forces in units
+of the prescribed tension (powers of two, exact). Newton on the two span
+equations starts from a straight cable along the chord with first-order sag
+corrections (``_initial_length``; steep cables given ``H`` start from the
+catenary in end angles); for taut cables this guess is within ``O((w c /
+T)^2)`` of the answer, so two or three steps reach full precision. The
+Jacobian stays regular for weightless and very light cables, whose sag is
+below the rounding of ``L0``. At a root the sign of the Jacobian determinant
+is that of ``dT/dL0`` at fixed geometry and tells the taut branch (negative)
+from the sagging one; cables that reach the sagging branch or do not
+converge are solved by a bracketing search over the family of catenaries
+through both ends (:mod:`catenary.solve.length_bracket`), which also detects
+infeasibility, and polished by the same Newton. A cable is reported
+converged only if its span residuals are below ``1e-8`` of its chord and its
+end tension is within ``1e-9`` of the prescribed one (``V_A`` is kept as
+found for ``end="A"``, not recomputed as ``V_B - w L0``, which may have lost
+its digits). Vertical cables are solved in closed form.
 """
 
 from __future__ import annotations
@@ -28,22 +31,24 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..elastic import axial_compliance, evaluate
+from ..elastic import axial_compliance, power_of_two
 from ..errors import InvalidCableError
 from .common import (
     CONVERGED,
     INDETERMINATE,
     INFEASIBLE,
     NOT_CONVERGED,
-    RES_TOL,
     STATUS_DTYPE,
     T_TOL,
     FloatArray,
     LengthResult,
+    certify_spans,
     prepare,
+    selection,
     status_array,
 )
 from .length_bracket import bracket_length, end_tension
+from .length_newton import newton_with_second_guess, polish_length
 
 __all__ = ["End", "solve_length"]
 
@@ -51,351 +56,54 @@ __all__ = ["End", "solve_length"]
 End = Literal["B", "A", "H"]
 
 
-def _initial_length(
-    end: str, x: FloatArray, z: FloatArray, T: FloatArray, w: FloatArray, inv_EA: FloatArray
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Near-straight cable guess with first-order sag, x > 0.
-
-    Returns ``(p, q, L0)``: for ``end="B"`` (``"A"``) the unit direction
-    ``(cos(phi), sin(phi))`` of the cable at that end, so that
-    ``(H, V) = T (p, q)``; for ``end="H"``, ``p = H = T`` and ``q = V_B``.
-
-    Shallow-cable (parabola) estimates in the chord frame: the end tangent
-    leaves the chord by ``atan(w c cos(theta) / (2 T_m))`` (above it at B,
-    below it at A), with ``T_m`` the tension at mid-height, and the stretched
-    length exceeds the chord by ``q^2 c^3 / (24 T_m^2)`` with ``q = w
-    cos(theta)`` the transverse load. Errors are ``O((w c / T)^2)``; the
-    direction is built by rotating the chord's unit vector, so the tiny
-    deviation of a light cable keeps full precision.
-    """
-    c = np.hypot(x, z)
-    cos_t = x / c
-    sin_t = z / c
-    with np.errstate(all="ignore"):
-        if end == "H":
-            # The mean vertical force is H z/x (parabola): V_B = H z/x + w L0/2.
-            Tm = T / cos_t
-            q = w * cos_t
-            Ls = c + q * q * c**3 / (24.0 * Tm * Tm)
-            Ls = np.minimum(Ls, 3.0 * c + 2.0 * T / np.where(w > 0, w, 1.0))
-            L0 = Ls / (1.0 + Tm * inv_EA)
-            return T, T * (z / x) + 0.5 * w * L0, L0
-        Tm = np.maximum(T - 0.5 * w * z if end == "B" else T + 0.5 * w * z, 0.5 * T)
-        t = 0.5 * w * x / Tm  # tan of the deviation from the chord
-        Ls = c + (t * t) * (c / 6.0)  # = c + (w cos c)^2 c^3 / (24 Tm^2)
-        L0 = Ls / (1.0 + Tm * inv_EA)
-        if end == "A":
-            t = -t
-        r = 1.0 / np.sqrt(1.0 + t * t)
-        p = (cos_t - t * sin_t) * r
-        q = (sin_t + t * cos_t) * r
-        # Beyond vertical: start from a steep but non-vertical direction.
-        steep = p < 0.01
-        if np.any(steep):
-            p = np.where(steep, 0.01, p)
-            q = np.where(steep, np.copysign(np.sqrt(1.0 - 1e-4), q), q)
-    return p, q, L0
-
-
-def _end_forces(
-    end: str, T: FloatArray, p: FloatArray, q: FloatArray, l0: FloatArray, w: FloatArray
-) -> tuple[FloatArray, FloatArray, FloatArray | None]:
-    """``(H, V_B, V_A)`` (N) of the Newton unknowns; ``V_A`` only for ``end="A"``."""
-    if end == "H":
-        return T, q, None
-    if end == "B":
-        return T * p, T * q, None
-    va = T * q
-    return T * p, va + w * l0, va
-
-
-def _length_step(
-    end: str,
-    x: FloatArray,
-    z: FloatArray,
-    w: FloatArray,
-    inv_EA: FloatArray,
-    h: FloatArray,
-    v: FloatArray,
-    va: FloatArray | None,
-    l0: FloatArray,
-) -> tuple[FloatArray, ...]:
-    """Residuals and Newton step of the span equations in ``(phi or V_B, L0)``.
-
-    Returns ``(rx, rz, det, dp, dl, T_A, T_B)``: span residuals (m), the
-    Jacobian determinant, the steps of the first unknown (``phi`` in rad or
-    ``V_B`` in N) and of ``L0`` (m), and the end tensions (N).
-    """
-    xs, zs, fxx, fxz, fzz, _, ta, tb = evaluate(h, v, l0, w, inv_EA)
-    with np.errstate(all="ignore"):
-        rx, rz = xs - x, zs - z
-        if end == "H":
-            xp, zp = fxz, fzz
-            kk = 1.0 / ta + inv_EA
-            xl, zl = h * kk, (v - w * l0) * kk
-        elif end == "B":
-            xp, zp = h * fxz - v * fxx, h * fzz - v * fxz
-            kk = 1.0 / ta + inv_EA
-            xl, zl = h * kk, (v - w * l0) * kk
-        else:
-            assert va is not None  # given for end "A"
-            xp, zp = h * fxz - va * fxx, h * fzz - va * fxz
-            # At fixed (H, V_A) the cable grows at end B, along its tangent.
-            kk = 1.0 / tb + inv_EA
-            xl, zl = h * kk, v * kk
-        det = xp * zl - xl * zp
-        dp = (xl * rz - zl * rx) / det
-        dl = (zp * rx - xp * rz) / det
-    return rx, rz, det, dp, dl, ta, tb
-
-
-def _length_update(
-    end: str,
-    p: FloatArray,
-    q: FloatArray,
-    l0: FloatArray,
-    dp: FloatArray,
-    dl: FloatArray,
-    ta: FloatArray,
-    tb: FloatArray,
-    rtol: float,
-) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.bool_], NDArray[np.bool_]]:
-    """Safeguarded Newton update: ``(p_new, q_new, L0_new, small_step, finite)``."""
-    ln = np.clip(l0 + dl, 0.5 * l0, 2.0 * l0)
-    if end == "H":
-        fscale = ta + tb
-        pn = q + np.clip(dp, -10 * fscale, 10 * fscale)
-        qn = pn
-        small_p = np.abs(dp) <= rtol * fscale
-        ok = np.isfinite(pn) & np.isfinite(ln)
-    else:
-        # Keep H > 0: cos(phi) may shrink at most tenfold per step.
-        with np.errstate(all="ignore"):
-            dp = np.where(dp * q > 0.9 * p, 0.9 * p / q, dp)
-            r = 1.0 / np.sqrt(1.0 + dp * dp)
-            pn = (p - dp * q) * r
-            qn = (q + dp * p) * r
-        small_p = np.abs(dp) <= rtol
-        ok = np.isfinite(pn) & np.isfinite(qn) & np.isfinite(ln)
-    small = small_p & (np.abs(dl) <= rtol * l0)
-    return pn, qn, ln, small, ok
-
-
-def _newton_length(
-    end: str,
-    x: FloatArray,
-    z: FloatArray,
-    T: FloatArray,
-    w: FloatArray,
-    inv_EA: FloatArray,
-    P: FloatArray,
-    Q: FloatArray,
-    L: FloatArray,
-    rtol: float,
-    max_iter: int,
-) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.bool_], NDArray[np.int64]]:
-    """2-D Newton on the span equations with the tension condition built in.
-
-    For ``end="B"`` (``"A"``) the unknowns are the direction angle ``phi`` of
-    the cable at that end and ``L0``, with ``(H, V_end) = T (cos(phi),
-    sin(phi))``; for ``end="H"`` they are ``V_B`` and ``L0`` with ``H = T``.
-    The tension condition thus holds exactly at every iterate (to rounding),
-    and the Jacobian stays regular for weightless and very light cables,
-    whose length carries no information about their tension (a Newton
-    iteration that solves for the tension through ``L0`` stalls there).
-    The direction is stored as a unit vector ``(P, Q)`` and rotated by
-    ``atan(dphi)`` per step (no trigonometric functions; quadratic
-    convergence is kept).
-
-    Returns ``(H, V_B, L0, converged, iterations)``. ``converged`` requires a
-    small step, span residuals below ``RES_TOL`` and the taut branch: at a
-    root ``dT/dL0`` at fixed geometry has the sign of ``det J`` (``J`` the
-    Jacobian in (phi or V_B, L0)), so ``det J < 0`` there.
-    """
-    P, Q, L = np.array(P, dtype=np.float64), Q.copy(), L.copy()
-    P = np.broadcast_to(P, L.shape).copy()
-    n = L.size
-    conv = np.zeros(n, bool)
-    its = np.zeros(n, np.int64)
-    idx = np.arange(n)
-    xa, za, Ta, wa, ia = x, z, T, w, inv_EA
-    for k in range(max_iter):
-        if idx.size == 0:
-            break
-        if k:
-            xa, za, Ta, wa, ia = x[idx], z[idx], T[idx], w[idx], inv_EA[idx]
-            p, q, l0 = P[idx], Q[idx], L[idx]
-        else:
-            # All cables take the first step: no gathering.
-            p, q, l0 = P, Q, L
-        h, v, va = _end_forces(end, Ta, p, q, l0, wa)
-        rx, rz, det, dp, dl, ta, tb = _length_step(end, xa, za, wa, ia, h, v, va, l0)
-        its[idx] += 1
-        pn, qn, ln, small, ok = _length_update(end, p, q, l0, dp, dl, ta, tb, rtol)
-        # Before the writes below: on the first step l0 is L itself.
-        fit = (np.abs(rx) <= RES_TOL * (xa + l0)) & (np.abs(rz) <= RES_TOL * (np.abs(za) + l0))
-        if end == "H":
-            Q[idx] = np.where(ok, qn, q)
-        else:
-            P[idx] = np.where(ok, pn, p)
-            Q[idx] = np.where(ok, qn, q)
-        L[idx] = np.where(ok, ln, l0)
-        # A small step with a large residual means a (near-)singular Jacobian.
-        fin = ok & small & fit
-        # A root with dT/dL0 >= 0 is the sagging branch: reject it.
-        conv[idx] = fin & (det < 0)
-        idx = idx[~fin & ok]
-    if end == "H":
-        H, V = np.broadcast_to(T, L.shape).copy(), Q
-    elif end == "B":
-        H, V = T * P, T * Q
-    else:
-        H, V = T * P, T * Q + w * L
-    return H, V, L, conv, its
-
-
-def _catenary_guess_h(
-    x: FloatArray,
-    z: FloatArray,
-    H: FloatArray,
-    w: FloatArray,
-    inv_EA: FloatArray,
-    V: FloatArray,
-    L: FloatArray,
-) -> tuple[FloatArray, FloatArray]:
-    """Guess ``(V_B, L0)`` for a prescribed horizontal tension, ``x > 0``, ``w > 0``.
-
-    In the hyperbolic end angles ``a = asinh(V_A/H)``, ``b = asinh(V_B/H)``
-    the inextensible catenary is explicit: ``b - a = w x_c / H``,
-    ``z_c = (2H/w) sinh((a+b)/2) sinh((b-a)/2)`` and
-    ``L0 = (2H/w) cosh((a+b)/2) sinh((b-a)/2)``, where ``x_c, z_c`` are the
-    spans without stretch. A few fixed-point passes, starting from the
-    guess ``(V, L)`` (N, m), subtract the stretch. This is exact for
-    inextensible cables and good for steep ones with moderate stretch, where
-    the parabolic guess of ``_initial_length`` is poor.
-    """
-    with np.errstate(all="ignore"):
-        for _ in range(4):
-            xc = np.maximum(x - H * L * inv_EA, 0.5 * x)
-            zc = z - (V * L - 0.5 * w * L * L) * inv_EA
-            d = w * xc / H
-            sh = np.sinh(0.5 * d)
-            m = np.arcsinh(w * zc / (2.0 * H * sh))
-            L = 2.0 * H / w * np.cosh(m) * sh
-            V = H * np.sinh(m + 0.5 * d)
-    return V, L
-
-
-def _polish_length(
-    end: str,
-    x: FloatArray,
-    z: FloatArray,
-    T: FloatArray,
-    w: FloatArray,
-    inv_EA: FloatArray,
-    H: FloatArray,
-    V: FloatArray,
-    L: FloatArray,
-    status: NDArray[np.str_],
-    rtol: float,
-    max_iter: int,
-) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.str_], NDArray[np.int64]]:
-    """Finish the bracketing fallback's roots and check the tension condition.
-
-    Newton with the tension built in (:func:`_newton_length`) is restarted
-    from each root; its answer is taken where it converges to the same
-    cable (``L0`` within ``1e-6``). Any root whose end tension is still off
-    by more than ``T_TOL`` relative is reported ``"not_converged"``, never
-    as a solution.
-    """
-    its = np.zeros(x.size, np.int64)
-    H, V, L, status = H.copy(), V.copy(), L.copy(), status.copy()
-    i = np.flatnonzero(status == CONVERGED)
-    if i.size:
-        Ti = T[i]
-        with np.errstate(all="ignore"):
-            if end == "H":
-                P, Q = Ti, V[i]
-            else:
-                Ve = V[i] if end == "B" else V[i] - w[i] * L[i]
-                Te = np.hypot(H[i], Ve)
-                P, Q = H[i] / Te, Ve / Te
-        Hp, Vp, Lp, cp, itp = _newton_length(
-            end, x[i], z[i], Ti, w[i], inv_EA[i], P, Q, L[i], rtol, max_iter
-        )
-        its[i] = itp
-        same = cp & (np.abs(Lp - L[i]) <= 1e-6 * L[i])
-        H[i] = np.where(same, Hp, H[i])
-        V[i] = np.where(same, Vp, V[i])
-        L[i] = np.where(same, Lp, L[i])
-        with np.errstate(all="ignore"):
-            off = ~(np.abs(end_tension(end, H[i], V[i], L[i], w[i]) - Ti) <= T_TOL * Ti)
-        status[i[off]] = NOT_CONVERGED
-    nan = status != CONVERGED
-    H[nan], V[nan], L[nan] = np.nan, np.nan, np.nan
-    return H, V, L, status, its
-
-
 def _vertical_length(
     end: str, z: FloatArray, T: FloatArray, w: FloatArray, inv_EA: FloatArray
-) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.str_]]:
-    """Straight vertical cable (x = 0): closed form, H = 0."""
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.str_]]:
+    """Straight vertical cable (x = 0): closed form, H = 0: ``(H, V_B, V_A, L0, status)``."""
     h = np.abs(z)
     n = z.size
     status = status_array(n, CONVERGED)
     if end == "H":
         status[:] = np.where(T > 0, INFEASIBLE, INDETERMINATE)
         nan = np.full(n, np.nan)
-        return nan, nan, nan, status
+        return nan, nan, nan, nan, status
     # Tension known at the upper end (B with z > 0, A with z < 0): weight reduces
     # the tension downwards, otherwise it adds.
     upper = (z > 0) if end == "B" else (z < 0)
     sgn = np.where(upper, -1.0, 1.0)
     p = 1.0 + T * inv_EA
     with np.errstate(all="ignore"):
-        disc = p * p + sgn * 2.0 * w * h * inv_EA
-        L0 = 2.0 * h / (p + np.sqrt(disc))
+        # The root of p L0 + sgn w inv_EA L0^2 / 2 = h, written not to overflow in p^2.
+        disc = 1.0 + sgn * 2.0 * w * h * (inv_EA / p) / p
+        L0 = 2.0 * h / (p * (1.0 + np.sqrt(disc)))
         bad = (disc < 0) | (upper & (T < w * L0)) | (h == 0)
     status[bad] = INFEASIBLE
-    # V_B: end B known -> +-T; end A known -> V_A = +-T, V_B = V_A + w L0.
+    # End B known -> V_B = +-T; end A known -> V_A = +-T, V_B = V_A + w L0.
+    known = np.where(z > 0, T, -T)
     if end == "B":
-        V = np.where(z > 0, T, -T)
+        V, V_A = known, known - w * L0
     else:
-        V = np.where(z > 0, T, -T) + w * L0
+        V, V_A = known + w * L0, known
     nan = status != CONVERGED
     return (
         np.where(nan, np.nan, 0.0),
         np.where(nan, np.nan, V),
+        np.where(nan, np.nan, V_A),
         np.where(nan, np.nan, L0),
         status,
     )
 
 
-def _steep_guesses_h(
-    x: FloatArray,
-    z: FloatArray,
-    T: FloatArray,
-    w: FloatArray,
-    inv_EA: FloatArray,
-    Q0: FloatArray,
-    L0: FloatArray,
-) -> tuple[FloatArray, FloatArray]:
-    """Second guesses ``(V_B, L0)`` for ``end="H"``, swapped in place with the first.
-
-    Steep cables: the parabola is a poor guess, the catenary in end angles a
-    good one (exact if inextensible); each is the other's second chance.
-    ``Q0`` and ``L0`` (the first guesses) are modified in place.
-    """
-    Qc, Lc = Q0.copy(), L0.copy()
-    cat_ok = np.flatnonzero(w > 0)
-    Qc[cat_ok], Lc[cat_ok] = _catenary_guess_h(
-        x[cat_ok], z[cat_ok], T[cat_ok], w[cat_ok], inv_EA[cat_ok], Q0[cat_ok], L0[cat_ok]
-    )
-    stretch = np.hypot(T, Q0) * inv_EA
-    s = np.flatnonzero((np.abs(z) > 3.0 * x) & (w > 0) & (stretch < 0.2))
-    Q0[s], Qc[s] = Qc[s], Q0[s]
-    L0[s], Lc[s] = Lc[s], L0[s]
-    return Qc, Lc
+def _weightless_length(
+    end: str, x: FloatArray, z: FloatArray, T: FloatArray, inv_EA: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.str_]]:
+    """Straight bar (``w = 0``, ``x > 0``) in closed form: ``(H, V_B, L0, status)``."""
+    c = np.hypot(x, z)
+    with np.errstate(all="ignore"):
+        T_bar = T * c / x if end == "H" else T
+        L0 = c / (1.0 + T_bar * inv_EA)
+        H, V = T_bar * (x / c), T_bar * (z / c)
+    return H, V, L0, status_array(x.size, CONVERGED)
 
 
 def _general_length(
@@ -405,38 +113,74 @@ def _general_length(
     T: FloatArray,
     w: FloatArray,
     inv_EA: FloatArray,
-    EA: FloatArray,
     rtol: float,
     max_iter: int,
-) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64], NDArray[np.str_]]:
-    """Cables with ``x > 0`` and ``T > 0``: ``(H, V_B, L0, iterations, status)``.
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.int64], NDArray[np.str_]]:
+    """Cables with ``x > 0`` and ``T > 0``: ``(H, V_B, V_A, L0, iterations, status)``.
 
-    Newton from the closed-form guess (for ``end="H"`` a second Newton from
-    the other guess), then the bracketing search and a polish for the rest.
+    Nondimensional: lengths in units of the chord and forces in units of
+    ``T`` (both rounded to powers of two, so the rounding is that of SI
+    units). Newton (:func:`newton_with_second_guess`), then for the rest the
+    bracketing search (closed form for weightless cables) and a polish.
+    Data whose scaled weight or compliance overflows are ``"not_converged"``.
     """
-    P0, Q0, L0 = _initial_length(end, x, z, T, w, inv_EA)
-    Qc, Lc = Q0, L0
-    if end == "H":
-        Qc, Lc = _steep_guesses_h(x, z, T, w, inv_EA, Q0, L0)
-    H, V, L, conv, its = _newton_length(end, x, z, T, w, inv_EA, P0, Q0, L0, rtol, max_iter)
-    if end == "H" and not np.all(conv):
-        f = np.flatnonzero(~conv & (w > 0))
-        Hr, Vr, Lr, convr, itr = _newton_length(
-            end, x[f], z[f], T[f], w[f], inv_EA[f], T[f], Qc[f], Lc[f], rtol, max_iter
+    ell, F = power_of_two(np.hypot(x, z)), power_of_two(T)
+    x, z, T = x / ell, z / ell, T / F
+    w, inv_EA = (w / F) * ell, inv_EA * F
+    # A weight, compliance or stretch under the weight beyond the double range in
+    # these units (inf or NaN here): no answer.
+    fine = np.isfinite(w * inv_EA)
+    if fine.all():
+        H, V, V_A, L, its, st = _scaled_length(end, x, z, T, w, inv_EA, rtol, max_iter)
+    else:
+        n = x.size
+        H, V, V_A, L = (np.full(n, np.nan) for _ in range(4))
+        its = np.zeros(n, np.int64)
+        st = status_array(n, NOT_CONVERGED)
+        s = np.flatnonzero(fine)
+        H[s], V[s], V_A[s], L[s], its[s], st[s] = _scaled_length(
+            end, x[s], z[s], T[s], w[s], inv_EA[s], rtol, max_iter
         )
-        H[f], V[f], L[f], conv[f] = Hr, Vr, Lr, convr
-        its[f] += itr
+    return H * F, V * F, V_A * F, L * ell, its, st
+
+
+def _scaled_length(
+    end: str,
+    x: FloatArray,
+    z: FloatArray,
+    T: FloatArray,
+    w: FloatArray,
+    inv_EA: FloatArray,
+    rtol: float,
+    max_iter: int,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.int64], NDArray[np.str_]]:
+    """:func:`_general_length` on nondimensional data: Newton, then the fallbacks."""
+    H, V, V_A, L, conv, its = newton_with_second_guess(end, x, z, T, w, inv_EA, rtol, max_iter)
     st = np.where(conv, CONVERGED, NOT_CONVERGED).astype(STATUS_DTYPE)
-    if not np.all(conv):
-        f = np.flatnonzero(~conv)
-        Hf, Vf, Lf, stf, itf = bracket_length(end, x[f], z[f], T[f], w[f], EA[f])
+    f = np.flatnonzero(~conv & (w > 0))
+    if f.size:
+        Hf, Vf, Lf, stf, itf = bracket_length(end, x[f], z[f], T[f], w[f], inv_EA[f])
         its[f] += itf
-        Hf, Vf, Lf, stf, itp = _polish_length(
+        H[f], V[f], V_A[f], L[f], st[f], itp = polish_length(
             end, x[f], z[f], T[f], w[f], inv_EA[f], Hf, Vf, Lf, stf, rtol, max_iter
         )
-        H[f], V[f], L[f], st[f] = Hf, Vf, Lf, stf
         its[f] += itp
-    return H, V, L, its, st
+    f = np.flatnonzero(~conv & (w == 0))
+    if f.size:
+        H[f], V[f], L[f], st[f] = _weightless_length(end, x[f], z[f], T[f], inv_EA[f])
+        V_A[f] = V[f]
+    return H, V, V_A, L, its, st
+
+
+def _certify_length(
+    end: str, x: FloatArray, z: FloatArray, T: FloatArray, w: FloatArray,
+    inv_EA: FloatArray, H: FloatArray, V: FloatArray, V_A: FloatArray, L: FloatArray,
+) -> NDArray[np.bool_]:
+    """Where the spans certificate holds and the prescribed tension is met to ``T_TOL``."""
+    with np.errstate(all="ignore"):
+        got = np.hypot(H, V_A) if end == "A" else end_tension(end, H, V, L, w)
+        met = np.abs(got - T) <= T_TOL * T
+    return met & np.isfinite(V_A) & certify_spans(x, z, H, V, L, w, inv_EA)
 
 
 def _solve_length_flat(
@@ -448,29 +192,38 @@ def _solve_length_flat(
     EA: FloatArray,
     rtol: float,
     max_iter: int,
-) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64], NDArray[np.str_]]:
-    """:func:`solve_length` on checked flat arrays: ``(H, V_B, L0, iterations, status)``."""
+) -> tuple[FloatArray, ...]:
+    """:func:`solve_length` on checked flat arrays: ``(H, V_B, V_A, L0, iterations, status)``."""
     n = x.size
     inv_EA = axial_compliance(EA)
-    H = np.full(n, np.nan)
-    V = np.full(n, np.nan)
-    L = np.full(n, np.nan)
+    H, V, V_A, L = (np.full(n, np.nan) for _ in range(4))
     its = np.zeros(n, np.int64)
     status = status_array(n, NOT_CONVERGED)
 
     vert = x == 0.0
     if np.any(vert):
         i = np.flatnonzero(vert)
-        H[i], V[i], L[i], status[i] = _vertical_length(end, z[i], T[i], w[i], inv_EA[i])
+        H[i], V[i], V_A[i], L[i], status[i] = _vertical_length(end, z[i], T[i], w[i], inv_EA[i])
     # Zero tension cannot hold a weighted cable with x > 0 or stretch a bar.
     zero = ~vert & (T == 0.0)
     status[zero] = np.where(w[zero] > 0, INFEASIBLE, INDETERMINATE)
-    gi = np.flatnonzero(~vert & ~zero)
-    if gi.size:
-        H[gi], V[gi], L[gi], its[gi], status[gi] = _general_length(
-            end, x[gi], z[gi], T[gi], w[gi], inv_EA[gi], EA[gi], rtol, max_iter
+    general = ~vert & ~zero
+    if general.any():
+        s = selection(general)
+        H[s], V[s], V_A[s], L[s], its[s], status[s] = _general_length(
+            end, x[s], z[s], T[s], w[s], inv_EA[s], rtol, max_iter
         )
-    return H, V, L, its, status
+    converged = status == CONVERGED
+    if converged.any():
+        s = selection(converged)
+        certified = np.zeros(n, bool)
+        certified[s] = _certify_length(end, x[s], z[s], T[s], w[s], inv_EA[s], H[s], V[s],
+                                       V_A[s], L[s])
+        status[converged & ~certified] = NOT_CONVERGED
+    unsolved = status != CONVERGED
+    if unsolved.any():
+        H[unsolved], V[unsolved], V_A[unsolved], L[unsolved] = np.nan, np.nan, np.nan, np.nan
+    return H, V, V_A, L, its, status
 
 
 def solve_length(
@@ -522,19 +275,23 @@ def solve_length(
     Newton on the two span equations with the tension condition built in,
     from a near-straight guess; the sign of the Jacobian determinant tells
     the taut branch from the sagging one; cables Newton cannot finish are
-    solved by a bracketing search in ``L0`` and polished. A cable is
-    reported converged only if its span residuals are below ``1e-8`` of its
-    size and its end tension is within ``1e-9`` of the prescribed one. The
-    method in detail: :mod:`catenary.solve.length`.
+    solved by a bracketing search over the catenaries through both ends and
+    polished. A cable is reported converged only if its forces are finite,
+    its span residuals below ``1e-8`` of its chord and its end tension within
+    ``1e-9`` of the prescribed one; otherwise ``"not_converged"`` (or
+    ``"infeasible"`` where no catenary carries the tension) with NaN values.
+    The method in detail: :mod:`catenary.solve.length`.
     """
     if end not in ("B", "A", "H"):
         raise InvalidCableError(f'end must be "B", "A" or "H"; got end={end!r}')
     shape, (xf, zf, tf, wf, ef) = prepare(x, z, tension, w, EA, "tension")
-    H, V, L, its, status = _solve_length_flat(end, xf, zf, tf, wf, ef, rtol, max_iter)
+    # Overflow is expected at extreme data: the certificate checks every result.
+    with np.errstate(all="ignore"):
+        H, V, V_A, L, its, status = _solve_length_flat(end, xf, zf, tf, wf, ef, rtol, max_iter)
     converged = status == CONVERGED
     return LengthResult(
         H=H.reshape(shape),
-        V_A=(V - wf * L).reshape(shape),
+        V_A=V_A.reshape(shape),
         V_B=V.reshape(shape),
         iterations=its.reshape(shape),
         converged=converged.reshape(shape),

@@ -372,3 +372,172 @@ def test_converged_inverse_solves_span_and_tension_equations(x, z, T, w, EA, end
     xs, zs = cat.spans(r.H, r.V_B, r.L0, w, EA)
     assert abs(xs - x) <= 1e-9 * (x + r.L0)
     assert abs(zs - z) <= 1e-9 * (abs(z) + r.L0)
+
+
+# ----------------------------------------------------------------------------
+# extreme but legal magnitudes: every answer certified, or honestly not one
+
+
+@pytest.mark.parametrize("end", ["B", "A", "H"])
+@pytest.mark.parametrize("T", [1e100, 1e200, 1e300])
+def test_huge_tension_stretches_an_elastic_cable_into_a_straight_bar(end: str, T: float) -> None:
+    # Once did not return (1e200) or took 1.3 s and 5383 iterations (1e100): the
+    # weight (w c / T < 1e-98) is far below rounding, so this is the straight elastic
+    # bar, L0 = c / (1 + T_bar / EA), with the tension along the chord.
+    x, z, w, EA = 10.0, 2.0, 20.0, 1e6
+    c = np.hypot(x, z)
+    r = cat.solve_length(x, z, T, w, EA, end=end)
+    assert r.status == "converged"
+    T_bar = T * c / x if end == "H" else T
+    assert r.L0 == pytest.approx(c / (1.0 + T_bar / EA), rel=1e-14)
+    assert r.H == pytest.approx(T_bar * x / c, rel=1e-14)
+    assert r.V_B == pytest.approx(T_bar * z / c, rel=1e-14)
+    assert r.iterations <= 3
+
+
+def test_a_cable_far_longer_than_its_chord() -> None:
+    # L0 = 1e300 m on a 10 m chord reported converged with V = -inf. No double
+    # answer exists: the spans' rounding, eps * L0, is 1e283 chords.
+    x, z, w = 10.0, 2.0, 20.0
+    r = cat.solve_forces(x, z, 1e300, w)
+    assert r.status == "not_converged" and np.isnan(r.H) and np.isnan(r.V_A)
+    # A million chords long is still within reach: the inextensible catenary of
+    # sinh(lam)/lam = sqrt(L0^2 - z^2)/x, with H = w x / (2 lam).
+    c = np.hypot(x, z)
+    L0 = 1e6 * c
+    r = cat.solve_forces(x, z, L0, w)
+    assert r.status == "converged"
+    lam = np.log(2.0 * np.sqrt(L0**2 - z**2) / x)
+    for _ in range(50):
+        lam = np.log(2.0 * lam * np.sqrt(L0**2 - z**2) / x)
+    assert r.H == pytest.approx(w * x / (2.0 * lam), rel=1e-9)
+    xs, zs = cat.spans(r.H, r.V_B, L0, w)
+    assert abs(xs - x) <= 1e-9 * c and abs(zs - z) <= 1e-9 * c
+
+
+def test_stretch_beyond_rounding_is_not_converged() -> None:
+    # Once "converged" after 1181 iterations, 1.9e-5 m off a 10 m chord. A cable
+    # whose own weight (3e10 N) stretches it 1e10-fold has the height z = -10 m as a
+    # difference of terms of 1e11 m: no double V_B reproduces it to 1e-8 of the
+    # chord. Shown on the vertical cable, in closed form
+    # (V_B = z / (L0/EA + 2/w) + w L0 / 2), over a range of 200 doubles around it.
+    z, L0, w, EA = -10.0, 30.0, 1e9, 1.0
+    V = z / (L0 / EA + 2.0 / w) + 0.5 * w * L0
+    candidates = V + np.arange(-100, 101) * np.spacing(V)
+    _, zs = cat.spans(0.0, candidates, L0, w, EA)
+    assert np.min(np.abs(zs - z)) > 1e-8 * abs(z)
+    for x in (0.0, 1e-9):
+        r = cat.solve_forces(x, z, L0, w, EA)
+        assert r.status == "not_converged" and np.isnan(r.H)
+    # Heavily stretched but within rounding: converged (once refused).
+    r = cat.solve_forces(1e9, 2.0, 683404.4285009323, 1e9, 1e6)
+    assert r.status == "converged"
+    xs, zs = cat.spans(r.H, r.V_B, 683404.4285009323, 1e9, 1e6)
+    assert abs(xs - 1e9) <= 1e-8 * 1e9 and abs(zs - 2.0) <= 1e-8 * 1e9
+
+
+def test_small_end_a_tension_under_a_heavy_cable_is_met_exactly() -> None:
+    # V_A was V_B - w L0 with V_B = 1e6 N: the end-A tension of 1e-6 N came out 3.6e-5
+    # off. V_A is now kept as the solver found it, T sin(phi).
+    r = cat.solve_length(1e-9, 1000.0, 1e-6, 1000.0, end="A")
+    assert r.status == "converged"
+    assert r.T_A == pytest.approx(1e-6, rel=1e-12)
+    assert r.L0 == pytest.approx(1000.0, rel=1e-12)
+    assert r.V_B == pytest.approx(1000.0 * r.L0 + r.V_A, rel=1e-15)
+
+
+@pytest.mark.parametrize(
+    ("x", "z", "T", "w", "EA"),
+    [(1000.0, -10.0, 1e-6, 1e9, 1000.0), (1.0, 1000.0, 1.0, 1e9, 1000.0)],
+)
+def test_infeasible_tension_reported_without_a_long_search(x, z, T, w, EA) -> None:
+    # These took 24 s, or did not return within 2 s. The end-A tension of every
+    # catenary through the two points (forward solves over 1e-6 to 1e6 chords of
+    # length) exceeds the prescribed one more than ten-thousandfold.
+    r = cat.solve_length(x, z, T, w, EA, end="A")
+    assert r.status == "infeasible" and np.isnan(r.L0)
+    assert r.iterations < 2000
+    L = np.geomspace(1e-6, 1e6, 2001) * np.hypot(x, z)
+    f = cat.solve_forces(x, z, L, w, EA)
+    assert f.converged.sum() > 100
+    assert np.min(f.T_A[f.converged]) > 1e4 * T
+
+
+def test_fallback_root_of_a_long_cable_given_h_round_trips() -> None:
+    # A cable 1000 chords long, its span mostly stretch (H L0 / EA = 0.999 x): Newton
+    # leaves it to the bracketing search over the family of catenaries, whose root
+    # the forward solver reproduces (once reported infeasible).
+    x, z, H, w, EA = 332877886.8169483, -10.0, 1.0, 1e-3, 1000.0
+    r = cat.solve_length(x, z, H, w, EA, end="H")
+    assert r.status == "converged" and r.H == pytest.approx(H, rel=1e-12)
+    assert r.L0 / np.hypot(x, z) == pytest.approx(999.88, rel=1e-4)
+    f = cat.solve_forces(x, z, r.L0, w, EA)
+    assert f.status == "converged" and f.H == pytest.approx(H, rel=1e-8)
+
+
+def test_extreme_cables_in_one_batch_solve_as_one_by_one() -> None:
+    # Scaling is per cable: a batch mixing ordinary and extreme cables gives each the
+    # answer it gets alone.
+    x = np.array([10.0, 10.0, 1e-9, 50.0, 1000.0, 1e9])
+    z = np.array([2.0, 2.0, 1000.0, 5.0, -10.0, 2.0])
+    T = np.array([1e200, 5000.0, 1e-6, 1.0, 1e-6, 1e12])
+    w = np.array([20.0, 24.2, 1000.0, 24.2, 1e9, 1e-9])
+    EA = np.array([1e6, np.inf, np.inf, np.inf, 1000.0, 1e9])
+    end = "A"
+    batch = cat.solve_length(x, z, T, w, EA, end=end)
+    assert batch.status.tolist() == ["converged", "converged", "converged", "infeasible",
+                                     "infeasible", "converged"]
+    for i in range(x.size):
+        one = cat.solve_length(x[i], z[i], T[i], w[i], EA[i], end=end)
+        assert one.status == batch.status[i]
+        np.testing.assert_allclose([one.L0, one.H, one.V_A], [batch.L0[i], batch.H[i],
+                                                               batch.V_A[i]], rtol=1e-14)
+    # Forward round trip (not for cable 2: the forward solver's V_A = V_B - w L0 keeps
+    # only 1e-10 N of the 1e-6 N under 1e6 N of weight).
+    ok = batch.converged & (np.arange(x.size) != 2)
+    f = cat.solve_forces(x[ok], z[ok], batch.L0[ok], w[ok], EA[ok])
+    np.testing.assert_allclose(f.T_A, T[ok], rtol=1e-8)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    H=st.floats(1e-3, 1e3),
+    V_B=st.floats(-1e3, 1e3),
+    L0=st.floats(1e-2, 1e2),
+    w=st.floats(0.0, 10.0),
+    EA=st.sampled_from([1e2, 1e5, np.inf]),
+    k=st.integers(-1000, 1000),
+)
+def test_spans_are_exact_under_power_of_two_force_scaling(H, V_B, L0, w, EA, k) -> None:
+    # Forces times 2**k (with w and EA) leave the spans unchanged and divide the
+    # flexibility by 2**k, to rounding: the evaluation works in units of the force
+    # scale (a power of two), so the
+    # squares and fourth powers of forces near 1e300 or 1e-300 neither overflow nor
+    # underflow (they did above about 1e77 N).
+    s = 2.0**k
+    scaled = (H * s, V_B * s, L0, w * s, EA * s)
+    with np.errstate(over="ignore", under="ignore"):
+        # Only exact scalings of normal numbers: no overflow, nothing near the subnormals.
+        pairs = zip((H, V_B, L0, w, EA), scaled, strict=True)
+        if not np.isfinite(scaled).all() or any(
+                v != 0.0 and min(abs(v), abs(v2)) < 1e-290 for v, v2 in pairs):
+            return
+    # To a few roundings of the cable's size (a product may land among the subnormals).
+    x0, z0 = cat.spans(H, V_B, L0, w, EA)
+    x1, z1 = cat.spans(*scaled)
+    size = L0 + abs(x0) + abs(z0)
+    assert abs(x1 - x0) <= 4e-15 * size and abs(z1 - z0) <= 4e-15 * size
+    F0 = cat.flexibility(H, V_B, L0, w, EA)
+    F1 = cat.flexibility(*scaled)
+    np.testing.assert_allclose(F1 * s, F0, rtol=4e-15, atol=4e-15 * np.abs(F0).max())
+
+
+def test_folded_cable_with_a_subnormal_weight_keeps_its_span() -> None:
+    # V_A < 0 < V_B with w = 1.1e-308 N/m: H/w overflowed and the span lost its
+    # catenary part (x = 0.04 m, the stretch alone). The cable is a straight bar to
+    # rounding: x = L0 (1 + H/EA), z = 0.
+    H, V_B, L0, w, EA = 2.0, 1.1125369292536007e-308, 2.0, 1.1125369292536007e-308, 100.0
+    x, z = cat.spans(H, V_B, L0, w, EA)
+    assert x == pytest.approx(L0 * (1.0 + H / EA), rel=1e-15) and z == 0.0
+    F = cat.flexibility(H, V_B, L0, w, EA)
+    np.testing.assert_allclose(F, [[L0 / EA, 0.0], [0.0, L0 / EA + L0 / H]], rtol=1e-15)

@@ -2,10 +2,11 @@
 
 Every call either raises the package's own error (:class:`tension_opt.TensionOptError`
 or :class:`catenary.CatenaryError`) whose message names the argument at fault, or
-returns a result whose status is honest: where it says ``optimal`` or ``converged`` the
-values are finite and their certificate holds (equilibrium and bounds for tensions,
-the spans for a catenary). No other exception type, and no hang: every call runs under
-a watchdog besides hypothesis' per-example deadline.
+returns a result whose status is honest: where it says ``optimal`` the values are
+finite and their certificate holds (equilibrium and bounds). No other exception type,
+and no hang: every call runs under a watchdog besides hypothesis' per-example deadline.
+The catenary solvers and the sag-aware kinematics have their own fuzzed contract in
+``tests/catenary/test_contract.py``.
 
 The examples are derandomised (the same on every run) and their number is bounded so
 that the module runs in about two minutes on two cores. Random robots include
@@ -24,7 +25,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import catenary
@@ -446,139 +447,6 @@ def test_backends_agree_where_they_say_optimal(data: st.DataObject) -> None:
                     np.nan_to_num(room, nan=0.0).min(axis=1, initial=1.0) > 1e-3 * scale)
                 assert not (roomy & (c.status == Status.INFEASIBLE)).any(), (
                     first, second, one.status, two.status)
-
-
-# ------------------------------------------------------------------------ catenary
-# The catenary solvers are fuzzed over ordinary magnitudes (which must hold) and over
-# extreme ones (which the issue asks to hold too, and which do not yet: marked xfail,
-# with the exact failing inputs below). No shrinking for the extreme ones: a hang
-# would be retried many times.
-ORDINARY = st.sampled_from([1e-3, 0.5, 1.0, 10.0, 1e3])
-EXTREME = st.sampled_from([1e-9, 1e-3, 1.0, 1e3, 1e6, 1e9])
-CATENARY_NAMES = ("x", "z", "l0", "w", "ea", "tension", "end", "length", "weight",
-                  "stiffness")
-NO_SHRINK = (Phase.explicit, Phase.generate)
-
-
-def _catenary_certified(result: Any, x: float, z: float, L0: Any, w: float, EA: float,
-                        tension: float | None = None, end: str = "B") -> None:
-    """Where converged: finite forces whose catenary spans the chord (1e-6 of it) and,
-    for a prescribed tension, meets it (1e-6 relative)."""
-    if str(result.status) != Status.CONVERGED:
-        return
-    H, V_B = float(result.H), float(result.V_B)
-    assert np.isfinite(H) and np.isfinite(V_B), f"converged with forces {H}, {V_B}"
-    assert np.isfinite(L0), f"converged with length {L0}"
-    xs, zs = catenary.spans(H, V_B, L0, w, EA)
-    miss = float(np.hypot(xs - x, zs - z))
-    assert miss <= 1e-6 * float(np.hypot(x, z)), f"converged spans miss the chord by {miss}"
-    if tension is not None:
-        got = float(np.hypot(H, result.V_B if end == "B" else result.V_A))
-        assert abs(got - tension) <= 1e-6 * tension, f"end tension {got} != {tension}"
-
-
-def _forces_case(x: float, z: float, ratio: float, w: float, EA: float, limit: float) -> None:
-    L0 = ratio * float(np.hypot(x, z))
-    result = keeps_contract(lambda: catenary.solve_forces(x, z, L0, w, EA),
-                            CATENARY_NAMES, limit)
-    if result is not None:
-        _catenary_certified(result, x, z, L0, w, EA)
-
-
-def _length_case(x: float, z: float, tension: float, w: float, EA: float, end: str,
-                 limit: float) -> None:
-    result = keeps_contract(lambda: catenary.solve_length(x, z, tension, w, EA, end),
-                            CATENARY_NAMES, limit)
-    if result is not None:
-        _catenary_certified(result, x, z, float(result.L0), w, EA, tension, end)
-
-
-HEIGHTS = st.sampled_from([-10.0, -1.0, 0.0, 2.0, 1e3])
-RATIOS = st.sampled_from([0.5, 0.999, 1.0, 1.001, 1.2, 3.0])
-
-
-@contract_settings(300)
-@given(x=ORDINARY, z=HEIGHTS, ratio=RATIOS, w=ORDINARY,
-       EA=st.sampled_from([np.inf, 1e9, 1e6]))
-def test_solve_forces_keeps_the_contract(x: float, z: float, ratio: float, w: float,
-                                         EA: float) -> None:
-    _forces_case(x, z, ratio, w, EA, limit=2.0)
-
-
-@contract_settings(300)
-@given(x=ORDINARY, z=HEIGHTS, tension=st.sampled_from([1e-3, 1.0, 1e3, 1e6, 1e12]),
-       w=ORDINARY, EA=st.sampled_from([np.inf, 1e9, 1e6]), end=st.sampled_from(["A", "B"]))
-def test_solve_length_keeps_the_contract(x: float, z: float, tension: float, w: float,
-                                         EA: float, end: str) -> None:
-    _length_case(x, z, tension, w, EA, end, limit=2.0)
-
-
-@pytest.mark.xfail(strict=False, reason="catenary (not tension_opt): extreme weights and "
-                   "stiffnesses give 'converged' off the chord, or run for seconds; see "
-                   "KNOWN_CATENARY")
-@settings(contract_settings(200), phases=NO_SHRINK)
-@given(x=EXTREME, z=HEIGHTS, ratio=RATIOS, w=EXTREME,
-       EA=st.sampled_from([np.inf, 1e9, 1e6, 1e3, 1.0]))
-def test_solve_forces_at_extreme_magnitudes(x: float, z: float, ratio: float, w: float,
-                                            EA: float) -> None:
-    _forces_case(x, z, ratio, w, EA, limit=2.0)
-
-
-@pytest.mark.xfail(strict=False, reason="catenary (not tension_opt): extreme tensions, "
-                   "weights and stiffnesses run for seconds or do not return; see "
-                   "KNOWN_CATENARY")
-@settings(contract_settings(200), phases=NO_SHRINK)
-@given(x=EXTREME, z=HEIGHTS, tension=st.sampled_from([1e-6, 1.0, 1e6, 1e12, 1e100, 1e300]),
-       w=EXTREME, EA=st.sampled_from([np.inf, 1e9, 1e3]), end=st.sampled_from(["A", "B"]))
-def test_solve_length_at_extreme_magnitudes(x: float, z: float, tension: float, w: float,
-                                            EA: float, end: str) -> None:
-    _length_case(x, z, tension, w, EA, end, limit=2.0)
-
-
-#: Failures the fuzzing found in :mod:`catenary` (not fixed here), as (function, args).
-KNOWN_CATENARY = [
-    # No return (the issue's 120 s hang; still open).
-    ("length", (10.0, 2.0, 1e200, 20.0, 1e6, "B")),
-    # Status converged with vertical forces of -inf.
-    ("forces", (10.0, 2.0, 1e300, 20.0, np.inf)),
-    # Converged after 1181 iterations, 1.9e-5 m off a 10 m chord (rtol 1e-9).
-    ("forces", (1e-9, -10.0, 30.0, 1e9, 1.0)),
-    # Converged with the end-A tension 3.6e-5 (relative) off the one prescribed.
-    ("length", (1e-9, 1000.0, 1e-6, 1000.0, np.inf, "A")),
-    # About 24 s to answer infeasible.
-    ("length", (1000.0, -10.0, 1e-6, 1e9, 1000.0, "A")),
-    # No return within 2 s.
-    ("length", (1.0, 1000.0, 1.0, 1e9, 1000.0, "A")),
-    ("forces", (1e6, 2.0, 3.0 * float(np.hypot(1e6, 2.0)), 1e9, 1000.0)),
-]
-
-
-@pytest.mark.xfail(strict=False, reason="catenary (not tension_opt): see KNOWN_CATENARY")
-@pytest.mark.parametrize(("function", "args"), KNOWN_CATENARY)
-def test_known_catenary_failures(function: str, args: tuple) -> None:
-    if function == "forces":
-        x, z, L0, w, EA = args
-        _forces_case(x, z, L0 / float(np.hypot(x, z)), w, EA, limit=2.0)
-    else:
-        _length_case(*args, limit=2.0)
-
-
-@contract_settings(40)
-@given(st.data())
-def test_sag_inverse_kinematics_keeps_the_contract(data: st.DataObject) -> None:
-    robot = to.presets.algae_harvester()
-    poses = data.draw(poses_for(robot))
-    model = data.draw(st.sampled_from(["thesis", "coupled", "nope"]))
-    objective = data.draw(st.sampled_from(["min_sum", "min_norm", "min_max"]))
-    result = keeps_contract(
-        lambda: catenary.inverse_kinematics(robot, poses, model, objective),
-        (*DISTRIBUTE_NAMES, "model"))
-    if result is None:
-        return
-    ok = result.status == Status.CONVERGED
-    assert np.isfinite(result.lengths[ok]).all() and np.isfinite(result.tensions[ok]).all()
-    if model == "coupled":  # the thesis model balances straight cables, not the sag
-        assert (result.equilibrium_residual[ok] <= 1e-6 * robot.weight).all()
 
 
 def test_the_watchdog_stops_a_call() -> None:
