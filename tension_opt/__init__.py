@@ -19,6 +19,7 @@ from tension_opt.errors import (
 )
 from tension_opt.margin import capacity_margin
 from tension_opt.problems import Objective, TensionProblem
+from tension_opt.realtime import Distributor, RealtimeResult
 from tension_opt.robot import CableProperties, CableRobot
 from tension_opt.solution import Status, TensionSolution
 from tension_opt.workspace import WorkspaceResult, workspace_grid, wrench_feasible_workspace
@@ -29,8 +30,10 @@ __all__ = [
     "BackendNotAvailableError",
     "CableProperties",
     "CableRobot",
+    "Distributor",
     "InvalidInputError",
     "Objective",
+    "RealtimeResult",
     "RobotFileError",
     "SolverError",
     "Status",

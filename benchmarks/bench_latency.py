@@ -1,0 +1,272 @@
+"""Latency of single calls and throughput of large batches, before and after the
+compiled real-time path: ``python -m benchmarks.bench_latency``.
+
+Each row times the plain numpy call as it is ("before"), the compiled path
+(:class:`tension_opt.Distributor`, :mod:`tension_opt.kernels`, :mod:`catenary.kernels`,
+:class:`catenary.realtime_ik.ThesisIK`; "after") and raw baselines (the DAQP call on
+the same data, plain numpy arithmetic), with p50 and p99 over many calls. Single calls
+are timed in CPU time of the calling thread (``time.thread_time_ns``), so that other
+load on a shared machine counts less; the timer's own cost (about 1 us: the clock is a
+system call) is printed as the first row and included in every per-call figure.
+Batches are timed in wall time per pose (``time.perf_counter``) on one and on all numba
+threads. The first-call cost (compiling the kernels, or loading them from numba's disk
+cache) is measured in fresh processes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+import catenary
+import tension_opt as to
+from catenary.realtime import PARALLEL_FROM, solve_forces_compiled, solve_length_compiled
+from tension_opt import presets
+
+__all__ = ["main"]
+
+#: Calls per single-call row (fewer for calls over 1 ms).
+CALLS = 10_000
+
+
+def percentiles(fn: Callable[[], object], calls: int) -> tuple[float, float]:
+    """p50 and p99 (us) of the CPU time of ``calls`` calls of ``fn`` (after a warm-up)."""
+    fn()
+    times = np.empty(calls)
+    for k in range(calls):
+        t0 = time.thread_time_ns()
+        fn()
+        times[k] = time.thread_time_ns() - t0
+    return float(np.median(times)) / 1e3, float(np.percentile(times, 99)) / 1e3
+
+
+def calls_for(fn: Callable[[], object]) -> int:
+    """:data:`CALLS`, or fewer for a call over 1 ms (about 2 s of calls, at least 20)."""
+    t0 = time.perf_counter()
+    fn()
+    once = time.perf_counter() - t0
+    return CALLS if once < 1e-3 else max(20, int(2.0 / once))
+
+
+def row(label: str, fn: Callable[[], object]) -> tuple[float, float]:
+    """Time one call and print its line; returns (p50, p99) in us."""
+    p50, p99 = percentiles(fn, calls_for(fn))
+    print(f"  {label:<58s} p50 {p50:10.2f} us   p99 {p99:10.2f} us", flush=True)
+    return p50, p99
+
+
+def ratio(before: tuple[float, float], after: tuple[float, float]) -> None:
+    print(f"  {'ratio before / after (p50)':<58s} {before[0] / after[0]:10.1f}x")
+
+
+def single_pose_rows() -> None:
+    """Rows 1-4 of the table: one pose through distribute, the DAQP backend, geometry."""
+    study, cogiro = presets.algae_harvester(), presets.cogiro()
+    for robot, name in ((study, "study robot"), (cogiro, "CoGiRo")):
+        pose = robot.default_home()
+        print(f"distribute({name}, one pose, 'min_norm', 'closed_form')")
+        before = row("before: tension_opt.distribute",
+                     lambda r=robot, p=pose: to.distribute(r, p, "min_norm", "closed_form"))
+        solver = to.Distributor(robot, "min_norm", "closed_form")
+        after = row("after: Distributor", lambda s=solver, p=pose: s(p))
+        ratio(before, after)
+        A, b = robot.structure_matrices(pose)[0], robot.required_wrench(pose)[0]
+        row("baseline: numpy pinv (no bounds)", lambda A=A, b=b: np.linalg.pinv(A) @ b)
+        print(f"distribute({name}, one pose, 'min_norm', 'qpsolvers:daqp')")
+        before = row("before: tension_opt.distribute", lambda r=robot, p=pose: to.distribute(
+            r, p, "min_norm", "qpsolvers:daqp"))
+        solver = to.Distributor(robot, "min_norm", "qpsolvers:daqp")
+        after = row("after: Distributor (compiled QP + daqp.solve + certificate)",
+                    lambda s=solver, p=pose: s(p))
+        ratio(before, after)
+        raw = raw_daqp_rows(solver, pose)
+        print(f"  {'ratio after / raw daqp.solve (p50)':<58s} {after[0] / raw[0]:10.2f}x")
+        print(f"geometry ({name}): structure matrix + required wrench, one pose")
+        before = row("before: robot.structure_matrices + required_wrench",
+                     lambda r=robot, p=pose: (r.structure_matrices(p), r.required_wrench(p)))
+        after = row("after: kernels.geometry.geometry_into", geometry_call(robot, pose))
+        ratio(before, after)
+
+
+def raw_daqp_rows(solver: to.Distributor, pose: np.ndarray) -> tuple[float, float]:
+    """The raw DAQP baselines of one pose on the very data the distributor hands DAQP
+    (the scaled dense QP): through qpsolvers, ``daqp.solve``, and a ``daqp.Model``
+    updated and solved. Returns the (p50, p99) of ``daqp.solve``."""
+    import daqp
+    import qpsolvers
+
+    solver(pose)
+    work = solver._local.work  # this thread's DAQP arrays, as of the last pose
+    H, f, A = work.H.copy(), work.f.copy(), work.Ad.copy()
+    upper, lower, sense = work.upper.copy(), work.lower.copy(), work.sense.copy()
+    m = len(f)
+    row("raw: qpsolvers.solve_qp(solver='daqp')", lambda: qpsolvers.solve_qp(
+        H, f, A=A, b=upper[m:], lb=lower[:m], ub=upper[:m], solver="daqp"))
+    raw = row("raw: daqp.solve (same data)", lambda: daqp.solve(H, f, A, upper, lower, sense))
+    model = daqp.Model()
+    model.setup(H, f, A, upper, lower, sense)
+    row("raw: daqp.Model.update + solve (same data)", lambda: (
+        model.update(f=f, A=A, bupper=upper, blower=lower), model.solve()))
+    return raw
+
+
+def geometry_call(robot: to.CableRobot, pose: np.ndarray) -> Callable[[], object]:
+    """One compiled geometry call of ``robot`` at ``pose`` (arrays made once)."""
+    from tension_opt.kernels.geometry import geometry_into, kind_code
+
+    args = (kind_code(robot.kind), np.array(robot.anchors), np.array(robot.attachments),
+            np.array(robot.com), robot.mass * robot.g, 1e-12, pose, np.zeros(robot.dof),
+            np.empty((robot.dof, robot.m)), np.empty(robot.dof))
+    return lambda: geometry_into(*args)
+
+
+def catenary_rows() -> None:
+    """solve_length of four cables, and the sag inverse kinematics of one pose."""
+    robot = presets.algae_harvester()
+    planes_x = np.array([40.0, 35.0, 30.0, 45.0])
+    z = np.array([7.0, 7.5, 6.0, 8.0])
+    T = np.array([3000.0, 2500.0, 4000.0, 3500.0])
+    w, EA = robot.cable.weight_per_length(robot.g), robot.cable.EA  # type: ignore[union-attr]
+    print("catenary.solve_length, 4 cables")
+    before = row("before: catenary.solve_length",
+                 lambda: catenary.solve_length(planes_x, z, T, w, EA))
+    after = row("after: catenary.realtime.solve_length_compiled",
+                lambda: solve_length_compiled(planes_x, z, T, w, EA))
+    ratio(before, after)
+    from catenary import kernels
+
+    out, codes = np.zeros((4, 5)), np.empty(4, dtype=np.int64)
+    inv = np.full(4, 1.0 / EA)
+    ws = np.full(4, w)
+    row("kernel alone: catenary.kernels.solve_length_serial", lambda: kernels.
+        solve_length_serial(True, planes_x, z, T, ws, inv, 1e-9, 30, out, codes))
+    L0 = catenary.solve_length(planes_x, z, T, w, EA).L0
+    print("catenary.solve_forces, 4 cables")
+    before = row("before: catenary.solve_forces",
+                 lambda: catenary.solve_forces(planes_x, z, L0, w, EA))
+    after = row("after: catenary.realtime.solve_forces_compiled",
+                lambda: solve_forces_compiled(planes_x, z, L0, w, EA))
+    ratio(before, after)
+    out4 = np.zeros((4, 4))
+    row("kernel alone: catenary.kernels.solve_forces_batch (serial)", lambda: kernels.
+        solve_forces_batch(planes_x, z, L0, ws, inv, 1e-9, 30, out4, codes, False))
+    pose = robot.default_home()
+    from catenary.realtime_ik import ThesisIK
+
+    print("catenary.inverse_kinematics(model='thesis'), one pose")
+    before = row("before: catenary.inverse_kinematics",
+                 lambda: catenary.inverse_kinematics(robot, pose, model="thesis"))
+    ik = ThesisIK(robot)
+    after = row("after: catenary.realtime_ik.ThesisIK", lambda: ik(pose))
+    ratio(before, after)
+    print("catenary.inverse_kinematics(model='coupled'), one pose")
+    row("before (no compiled path yet)",
+        lambda: catenary.inverse_kinematics(robot, pose, model="coupled"))
+
+
+def batch_rows(count: int) -> None:
+    """Closed-form min-sum over many feasible and infeasible poses; solve_length over
+    many cables; wall time per pose on one and on all threads."""
+    import numba
+
+    robot = presets.algae_harvester()
+    rng = np.random.default_rng(0)
+    low, high = robot.anchors.min(axis=0), robot.anchors.max(axis=0)
+    draws = rng.uniform(low - np.array([0, 0, 0.95 * (high[2] - low[2]) + 2]),
+                        high - np.array([0, 0, 0.5]), (count, 3))
+    ok = to.distribute(robot, draws[:20000], "min_sum", "closed_form").success
+    share = ok.mean()
+    feasible = draws[:20000][ok][rng.integers(0, ok.sum(), count)]
+    infeasible = draws[:20000][~ok][rng.integers(0, (~ok).sum(), count)]
+    solver = to.Distributor(robot, "min_sum", "closed_form")
+    print(f"closed-form min-sum over {count} poses (box: {100 * (1 - share):.0f} % infeasible)")
+    for label, poses in (("feasible", feasible), ("infeasible", infeasible)):
+        t0 = time.perf_counter()
+        to.distribute(robot, poses, "min_sum", "closed_form")
+        before = (time.perf_counter() - t0) / count * 1e9
+        print(f"  {label:<11s} before: distribute {before:10.1f} ns/pose")
+        for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
+            numba.set_num_threads(threads)
+            solver(poses[:5000])
+            t0 = time.perf_counter()
+            solver(poses)
+            after = (time.perf_counter() - t0) / count * 1e9
+            print(f"  {label:<11s} after: Distributor, {threads} thread(s) {after:10.1f} "
+                  f"ns/pose  ({before / after:.1f}x)")
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    x = rng.uniform(1.0, 60.0, count)
+    zc = rng.uniform(-5.0, 10.0, count)
+    T = rng.uniform(500.0, 5000.0, count)
+    w = robot.cable.weight_per_length(robot.g)  # type: ignore[union-attr]
+    print(f"catenary.solve_length over {count} cables")
+    t0 = time.perf_counter()
+    catenary.solve_length(x, zc, T, w, robot.cable.EA)  # type: ignore[union-attr]
+    before = (time.perf_counter() - t0) / count * 1e9
+    warm = PARALLEL_FROM + 1  # loads the parallel kernel before timing it
+    solve_length_compiled(x[:warm], zc[:warm], T[:warm], w, 1e7)
+    t0 = time.perf_counter()
+    solve_length_compiled(x, zc, T, w, robot.cable.EA)  # type: ignore[union-attr]
+    after = (time.perf_counter() - t0) / count * 1e9
+    print(f"  before {before:10.1f} ns/cable   after {after:10.1f} ns/cable "
+          f"({before / after:.1f}x)")
+
+
+_FIRST_CALL = """
+import time
+t0 = time.perf_counter()
+import numpy as np, tension_opt as to
+from tension_opt import presets
+robot = presets.algae_harvester()
+solver = to.Distributor(robot, "min_sum", "closed_form")
+t1 = time.perf_counter()
+solver(robot.default_home())
+t2 = time.perf_counter()
+print(f"{t1 - t0:.3f} {t2 - t1:.3f}")
+"""
+
+
+def first_call(cold: bool) -> None:
+    """First-call cost in fresh processes: with the on-disk cache, and (``cold``)
+    compiling into an empty cache directory."""
+    print("first call of a Distributor (fresh process): import s, first call s")
+    cases = [("numba disk cache warm", None)]
+    if cold:
+        cases.append(("empty cache (compiles)", tempfile.mkdtemp(prefix="numba-cache-")))
+    for label, cache in cases:
+        env = dict(os.environ)
+        if cache is not None:
+            env["NUMBA_CACHE_DIR"] = cache
+        out = subprocess.run([sys.executable, "-c", _FIRST_CALL], env=env, check=True,
+                             capture_output=True, text=True).stdout.split()
+        print(f"  {label:<30s} import {float(out[0]):8.3f} s   first call "
+              f"{float(out[1]):8.3f} s")
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Print every row: single calls, catenary, batches, first-call cost."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--poses", type=int, default=1_000_000,
+                        help="poses (and cables) of the batch rows (default 10^6)")
+    parser.add_argument("--cold", action="store_true",
+                        help="also time compiling into an empty cache (minutes)")
+    args = parser.parse_args(argv)
+    print(f"bench_latency  python {sys.version.split()[0]}  numpy {np.__version__}  "
+          f"cores {os.cpu_count()}  load average {os.getloadavg()[0]:.1f}")
+    first_call(args.cold)
+    print("timer floor (an empty call)")
+    row("lambda: None", lambda: None)
+    single_pose_rows()
+    catenary_rows()
+    batch_rows(args.poses)
+    print(f"load average at the end {os.getloadavg()[0]:.1f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,24 @@
+"""Compiled (numba) kernels of the real-time path, one pose at a time or in parallel.
+
+The numpy implementations (:mod:`tension_opt.robot`, :mod:`tension_opt.backends.closed_form`,
+:mod:`tension_opt.scaled`, :mod:`tension_opt.certificate`) are the reference these
+kernels are tested against. numba compiles each kernel on its first call and caches the
+machine code on disk (``cache=True``), so importing this package compiles nothing;
+:mod:`tension_opt.realtime` imports it only when a
+:class:`~tension_opt.realtime.Distributor` is built.
+
+The one-pose kernels allocate nothing: their temporaries live in a work array the caller
+owns (one per thread; :func:`~tension_opt.kernels.closed_form.work_size`), each kernel
+taking its own arrays from the front of it and handing the rest to the kernels it calls.
+The batch kernels allocate one work array per chunk of poses.
+
+- :mod:`tension_opt.kernels.geometry`: structure matrix and required wrench of every
+  robot kind;
+- :mod:`tension_opt.kernels.nullspace`, :mod:`tension_opt.kernels.lowdim`: the null
+  space and the minimisation over it;
+- :mod:`tension_opt.kernels.closed_form`: the exact closed form for null spaces of
+  dimension 1 and 2 (every objective it covers, the tie-break, the feasibility check
+  of the status), one pose, a parallel batch or a sequence;
+- :mod:`tension_opt.kernels.dense_qp`: the scaled dense QP of one pose for DAQP and
+  the certificate of DAQP's answer.
+"""

@@ -1,0 +1,276 @@
+"""The exact closed form of one pose, compiled: problem terms, null space, optimum,
+status; and the same over a batch of poses (in parallel) or a sequence (in order,
+each pose smoothed against the answer before).
+
+The reference is :class:`tension_opt.backends.closed_form.ClosedFormBackend` with the
+status rule of :meth:`tension_opt.solution.TensionSolution.from_form`: a pose is
+optimal only with finite tensions whose equilibrium residual and bound violation are
+within ``max(FEASIBILITY_TOL, 10 * target)`` of the form's tolerance scale (the dual
+measures of the certificate hold by construction for an exact closed form).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+from numpy.typing import NDArray
+
+from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
+from tension_opt.kernels.lowdim import LP, MINMAX, QP, lowdim_work, lp_2d, qp_2d, solve_1d
+from tension_opt.kernels.nullspace import null_space, null_space_work
+
+__all__ = ["CODE_BAD_INPUT", "CODE_FALLBACK", "CODE_STATUS", "HEADER", "form_terms", "judge",
+           "pack", "pose_scales", "solve_batch", "solve_form", "solve_one", "solve_sequence",
+           "work_size"]
+
+#: Status codes of the kernels and the :class:`~tension_opt.solution.Status` values
+#: they stand for; :data:`CODE_FALLBACK` asks for the numpy path (singular or badly
+#: conditioned structure matrix, zero-length cable).
+CODE_STATUS = ("optimal", "infeasible", "unbounded", "inaccurate", "solver_error")
+CODE_FALLBACK = 9
+#: Code of :func:`solve_one` for a pose or wrench that is not finite (the caller raises).
+CODE_BAD_INPUT = 8
+#: Floats before the per-cable data in :func:`pack`'s array.
+HEADER = 11
+#: Poses per work space of a parallel batch (:func:`solve_batch`).
+CHUNK = 256
+
+
+@njit(cache=True)
+def work_size(m: int, n: int) -> int:
+    """Floats of work space one pose needs (:func:`solve_one`) for ``m`` cables and
+    ``n`` degrees of freedom."""
+    own = n * m + n + 7 * m
+    return own + max(null_space_work(m, n), lowdim_work(m), 4 * m)
+
+
+def pack(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray, weight: float,
+         zero_length: float, smoothing: float, tol_factor: float, minmax: bool,
+         terms: NDArray) -> NDArray:
+    """Everything about a problem that does not change between poses, in one array
+    (one argument for the compiled call, so that calling costs little).
+
+    Parameters
+    ----------
+    kind : int
+        :data:`tension_opt.kernels.geometry.KIND_CODES` of the robot.
+    anchors, attachments : ndarray, shape (m, 3)
+        Drawing points (base frame) and attachment points (platform frame) (m).
+    com : ndarray, shape (3,)
+        Centre of mass in the platform frame (m).
+    weight, zero_length, smoothing, tol_factor : float
+        Platform weight (N), cable length (m) at or below which a cable is on its
+        drawing point, smoothing weight, factor of the feasibility tolerance.
+    minmax : bool
+        Whether the objective is min-max (``v`` its weights).
+    terms : ndarray, shape (6, m)
+        ``q0, c0, v, lb0, ub0, rate`` (the problem's terms without smoothing; ``rate``
+        ``inf`` for no rate limit).
+
+    Returns
+    -------
+    ndarray, shape (HEADER + 12 m,)
+    """
+    m = anchors.shape[0]
+    n = {0: 3, 1: 2, 2: 3, 3: 6}[int(kind)]
+    header = [kind, m, n, weight, zero_length, smoothing, tol_factor, float(minmax),
+              *np.asarray(com, dtype=float)]
+    return np.ascontiguousarray(np.concatenate([
+        np.array(header, dtype=float), np.asarray(anchors, dtype=float).ravel(),
+        np.asarray(attachments, dtype=float).ravel(), np.asarray(terms, dtype=float).ravel()]))
+
+
+@njit(cache=True, error_model="numpy")
+def form_terms(q0: NDArray, c0: NDArray, lb0: NDArray, ub0: NDArray, smoothing: float,
+           rate: NDArray, prev: NDArray, has_prev: bool, q: NDArray, c: NDArray,
+           lb: NDArray, ub: NDArray) -> None:
+    """The pose's form (``TensionProblem.standard_form_from``): smoothing adds
+    ``2 s`` to ``q`` and ``-2 s prev`` to ``c``; a rate limit tightens the bounds."""
+    for i in range(q0.size):
+        q[i], c[i], lb[i], ub[i] = q0[i], c0[i], lb0[i], ub0[i]
+        if has_prev:
+            if smoothing:
+                q[i] += 2.0 * smoothing
+                c[i] += -2.0 * smoothing * prev[i]
+            if math.isfinite(rate[i]):
+                lb[i] = max(lb[i], prev[i] - rate[i])
+                ub[i] = min(ub[i], prev[i] + rate[i])
+
+
+@njit(cache=True, error_model="numpy")
+def pose_scales(A: NDArray, b: NDArray, lb: NDArray) -> tuple[float, float]:
+    """``(typical tension, tolerance scale)`` of the pose
+    (:func:`~tension_opt.nullspace.typical_tension`, ``StandardForm.tolerance_scale``)."""
+    n, m = A.shape
+    col = 0.0
+    for j in range(m):
+        s = 0.0
+        for i in range(n):
+            s += A[i, j] * A[i, j]
+        col = max(col, math.sqrt(s))
+    bn = 0.0
+    for i in range(n):
+        bn += b[i] * b[i]
+    bn = math.sqrt(bn)
+    top_lb = 0.0
+    for i in range(m):
+        if math.isfinite(lb[i]):
+            top_lb = max(top_lb, abs(lb[i]))
+    typical = max(max(bn / max(col, 1e-300), top_lb), 1e-12)
+    return typical, max(max(bn, top_lb), 1e-12)
+
+
+@njit(cache=True, error_model="numpy")
+def judge(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, T: NDArray, tol: float
+           ) -> tuple[int, float]:
+    """Status code (0 optimal, 3 inaccurate, 4 solver error) and equilibrium residual
+    of solved tensions."""
+    n, m = A.shape
+    for i in range(m):
+        if not math.isfinite(T[i]):
+            T[:] = np.nan
+            return 4, np.nan
+    res = 0.0
+    for k in range(n):
+        r = -b[k]
+        for i in range(m):
+            r += A[k, i] * T[i]
+        res += r * r
+    res = math.sqrt(res)
+    violation = 0.0
+    for i in range(m):
+        violation = max(violation, max(lb[i] - T[i], T[i] - ub[i]))
+    return (0 if res <= tol and violation <= tol else 3), res
+
+
+@njit(cache=True, error_model="numpy")
+def solve_form(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
+               v: NDArray, minmax: bool, tol_factor: float, T: NDArray, work: NDArray
+               ) -> tuple[int, bool, float, float]:
+    """Closed form of one pose's form: tensions written to ``T`` (m,); returns
+    ``(code, unique, residual, infeasibility)`` (codes :data:`CODE_STATUS`, or
+    :data:`CODE_FALLBACK` for the numpy path). ``work`` holds the null space and the
+    enumeration's temporaries (:func:`work_size`)."""
+    n, m = A.shape
+    r = m - n
+    quadratic = False
+    for i in range(m):
+        quadratic = quadratic or q[i] != 0.0
+    kind = MINMAX if minmax else (QP if quadratic else LP)
+    if (minmax and (quadratic or r != 1)) or r < 1 or r > 2:
+        return CODE_FALLBACK, True, np.nan, np.nan
+    T0 = work[:m]
+    Z = work[m:m + m * r].reshape((m, r))
+    rest = work[3 * m:]
+    if not null_space(A, b, T0, Z, rest):
+        return CODE_FALLBACK, True, np.nan, np.nan
+    typical, tol_scale = pose_scales(A, b, lb)
+    infeas = np.nan
+    if r == 1:
+        code, unique, infeas = solve_1d(T0, Z[:, 0], lb, ub, q, c, v, kind, typical, T, rest)
+    else:
+        if kind == QP:
+            z0, z1, feasible = qp_2d(T0, Z, lb, ub, q, c, typical, rest)
+            unique = True
+        else:
+            z0, z1, feasible, unique = lp_2d(T0, Z, lb, ub, c, typical, rest)
+        code = 0 if feasible else 1
+        for i in range(m):
+            T[i] = T0[i] + Z[i, 0] * z0 + Z[i, 1] * z1 if feasible else np.nan
+    if code != 0:
+        return code, unique, np.nan, infeas
+    code, res = judge(A, b, lb, ub, T, tol_factor * tol_scale)
+    return code, unique, res, infeas
+
+
+@njit(cache=True, error_model="numpy")
+def solve_one(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
+              has_prev: bool, work: NDArray, T: NDArray) -> tuple[int, bool, float, float]:
+    """Geometry, form and closed form of one pose, allocating nothing.
+
+    Parameters
+    ----------
+    data : ndarray
+        The problem (:func:`pack`).
+    pose : ndarray, shape (n,)
+    wrench : ndarray, shape (n,)
+        External wrench besides gravity (N, N m); zeros for none.
+    prev : ndarray, shape (m,)
+        Previous tensions (N), used where ``has_prev`` (smoothing, rate limit).
+    work : ndarray
+        At least :func:`work_size` floats, owned by the calling thread.
+    T : ndarray, shape (m,)
+        Tensions (N), written.
+
+    Returns
+    -------
+    tuple
+        ``(code, unique, residual, infeasibility)``: :data:`CODE_STATUS` index,
+        :data:`CODE_FALLBACK` (the numpy path decides) or :data:`CODE_BAD_INPUT` (a
+        pose or wrench that is not finite).
+    """
+    kind, m, n = int(data[0]), int(data[1]), int(data[2])
+    for i in range(n):
+        if not (math.isfinite(pose[i]) and math.isfinite(wrench[i])):
+            return CODE_BAD_INPUT, True, np.nan, np.nan
+    com = data[8:HEADER]
+    anchors = data[HEADER:HEADER + 3 * m].reshape((m, 3))
+    attachments = data[HEADER + 3 * m:HEADER + 6 * m].reshape((m, 3))
+    terms = data[HEADER + 6 * m:HEADER + 12 * m].reshape((6, m))
+    A = work[:n * m].reshape((n, m))
+    b = work[n * m:n * m + n]
+    o = n * m + n
+    q, c, lb, ub = work[o:o + m], work[o + m:o + 2 * m], work[o + 2 * m:o + 3 * m], \
+        work[o + 3 * m:o + 4 * m]
+    if geometry_into(kind, anchors, attachments, com, data[3], data[4], pose, wrench, A,
+                     b) != GEOMETRY_OK:
+        return CODE_FALLBACK, True, np.nan, np.nan
+    form_terms(terms[0], terms[1], terms[3], terms[4], data[5], terms[5], prev, has_prev,
+           q, c, lb, ub)
+    return solve_form(A, b, lb, ub, q, c, terms[2], data[7] != 0.0, data[6], T,
+                      work[o + 4 * m:])
+
+
+@njit(cache=True, error_model="numpy", parallel=True)
+def solve_batch(data: NDArray, poses: NDArray, wrenches: NDArray, prev: NDArray,
+                has_prev: bool, T: NDArray, info: NDArray, codes: NDArray) -> None:
+    """:func:`solve_one` over poses (N, n) in parallel, each pose independent.
+
+    ``wrenches`` (N, n) or (1, n) (one for every pose), ``prev`` (N, m) or (1, m);
+    ``T`` (N, m), ``info`` (N, 3) ``(unique, residual, infeasibility)`` and ``codes``
+    (N,) written. Work space is allocated once per chunk of :data:`CHUNK` poses.
+    """
+    N, m, n = poses.shape[0], int(data[1]), int(data[2])
+    size = work_size(m, n)
+    chunks = (N + CHUNK - 1) // CHUNK
+    for j in prange(chunks):
+        work = np.empty(size)
+        for k in range(j * CHUNK, min(N, (j + 1) * CHUNK)):
+            w = wrenches[k] if wrenches.shape[0] > 1 else wrenches[0]
+            p = prev[k] if prev.shape[0] > 1 else prev[0]
+            code, unique, res, infeas = solve_one(data, poses[k], w, p, has_prev, work, T[k])
+            codes[k] = code
+            info[k, 0], info[k, 1], info[k, 2] = 1.0 if unique else 0.0, res, infeas
+
+
+@njit(cache=True, error_model="numpy")
+def solve_sequence(data: NDArray, poses: NDArray, wrenches: NDArray, last: NDArray,
+                   has_last: bool, T: NDArray, info: NDArray, codes: NDArray,
+                   start: int, work: NDArray) -> int:
+    """Poses ``start, start + 1, ...`` in order, each smoothed against the last optimal
+    tensions (``last`` (m,), updated in place; unsmoothed while there are none).
+    Stops at a pose that needs the numpy path and returns its index (N when done).
+    ``wrenches`` (N, n) or (1, n)."""
+    for k in range(start, poses.shape[0]):
+        w = wrenches[k] if wrenches.shape[0] > 1 else wrenches[0]
+        code, unique, res, infeas = solve_one(data, poses[k], w, last, has_last, work, T[k])
+        codes[k] = code
+        info[k, 0], info[k, 1], info[k, 2] = 1.0 if unique else 0.0, res, infeas
+        if code >= CODE_BAD_INPUT:
+            return k
+        if code == 0:
+            last[:] = T[k]
+            has_last = True
+    return poses.shape[0]

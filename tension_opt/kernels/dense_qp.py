@@ -1,0 +1,237 @@
+"""The scaled dense QP of one pose for DAQP, and the judgement of DAQP's answer, compiled.
+
+The problem handed to DAQP is the one the ``qpsolvers:daqp`` backend builds
+(:func:`tension_opt.scaled.scaled_batch`: tensions over the pose's typical tension,
+equilibrium rows over their norms, objective over its largest Hessian entry), laid out
+as DAQP takes it: ``m`` simple bounds, then ``n`` equality rows. The answer is judged
+as :meth:`tension_opt.solution.TensionSolution.from_form` judges it, with DAQP's own
+multipliers: optimal only when the equilibrium residual and bound violation are within
+the feasibility tolerance and the certificate's primal residual, dual residual and
+duality gap are within the accuracy target (:mod:`tension_opt.certificate`). A pose
+that misses any of these is left to the numpy path, whose certificate may estimate
+better multipliers, so that a status never claims more than the numpy path would.
+
+Only quadratic objectives without min-max terms or extra rows are covered (an LP needs
+the two-stage tie-break of :class:`tension_opt.backends.base.Backend`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from tension_opt.kernels.closed_form import (
+    CODE_BAD_INPUT,
+    CODE_FALLBACK,
+    HEADER,
+    form_terms,
+    judge,
+    pose_scales,
+)
+from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
+
+__all__ = ["BIG", "DaqpPose", "qp_judge", "qp_problem", "qp_size", "qp_views"]
+
+#: DAQP's infinity.
+BIG = 1e30
+
+
+@njit(cache=True, error_model="numpy")
+def qp_problem(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
+               has_prev: bool, work: NDArray, qp: NDArray) -> tuple[int, float]:
+    """Write the scaled QP of one pose in DAQP's layout.
+
+    Parameters
+    ----------
+    data : ndarray
+        The problem (:func:`tension_opt.kernels.closed_form.pack`).
+    pose, wrench : ndarray, shape (n,)
+    prev : ndarray, shape (m,)
+        Previous tensions (N), used where ``has_prev``.
+    work : ndarray
+        At least ``n m + n + 4 m`` floats, kept for :func:`qp_judge`.
+    qp : ndarray, shape (qp_size(m, n),)
+        DAQP's arrays end to end (:func:`qp_views`): the diagonal Hessian (m, m) (only
+        its diagonal is written), ``f`` (m,), the scaled equilibrium rows (n, m), and
+        ``upper``, ``lower`` (m + n,) (bounds, then the right-hand sides of the
+        equations).
+
+    Returns
+    -------
+    tuple
+        ``(code, scale)``: code 0 (ready), ``CODE_FALLBACK`` (a degenerate pose, an
+        LP, a scale that is not finite) or ``CODE_BAD_INPUT``; the reference tension (N).
+    """
+    m, n = int(data[1]), int(data[2])
+    for i in range(n):
+        if not (math.isfinite(pose[i]) and math.isfinite(wrench[i])):
+            return CODE_BAD_INPUT, np.nan
+    H, f, Ad, upper, lower = qp_views(qp, m, n)
+    A = work[:n * m].reshape((n, m))
+    b = work[n * m:n * m + n]
+    o = n * m + n
+    q, c, lb, ub = work[o:o + m], work[o + m:o + 2 * m], work[o + 2 * m:o + 3 * m], \
+        work[o + 3 * m:o + 4 * m]
+    anchors = data[HEADER:HEADER + 3 * m].reshape((m, 3))
+    attachments = data[HEADER + 3 * m:HEADER + 6 * m].reshape((m, 3))
+    terms = data[HEADER + 6 * m:HEADER + 12 * m].reshape((6, m))
+    if geometry_into(int(data[0]), anchors, attachments, data[8:HEADER], data[3], data[4],
+                     pose, wrench, A, b) != GEOMETRY_OK:
+        return CODE_FALLBACK, np.nan
+    form_terms(terms[0], terms[1], terms[3], terms[4], data[5], terms[5], prev, has_prev,
+           q, c, lb, ub)
+    top = 0.0
+    for i in range(m):
+        top = max(top, q[i])
+    s, _ = pose_scales(A, b, lb)
+    if not (top > 0.0 and math.isfinite(s)):
+        return CODE_FALLBACK, np.nan
+    for i in range(m):
+        H[i, i] = q[i] / top
+        f[i] = c[i] / top / s
+        upper[i] = min(ub[i] / s, BIG)
+        lower[i] = max(lb[i] / s, -BIG)
+    for k in range(n):
+        factor = _row_factor(A, k)
+        for i in range(m):
+            Ad[k, i] = A[k, i] * factor
+        upper[m + k] = lower[m + k] = b[k] * factor / s
+    return 0, s
+
+
+@njit(cache=True)
+def qp_size(m: int, n: int) -> int:
+    """Floats of DAQP's arrays for ``m`` cables and ``n`` degrees of freedom."""
+    return m * m + m + n * m + 2 * (m + n)
+
+
+@njit(cache=True)
+def qp_views(qp: NDArray, m: int, n: int) -> tuple[NDArray, NDArray, NDArray, NDArray,
+                                                   NDArray]:
+    """``(H, f, A, upper, lower)`` as views of one array (see :func:`qp_problem`)."""
+    o = m * m
+    return (qp[:o].reshape((m, m)), qp[o:o + m], qp[o + m:o + m + n * m].reshape((n, m)),
+            qp[o + m + n * m:o + 2 * m + n * m + n], qp[o + 2 * m + n * m + n:])
+
+
+@njit(cache=True, error_model="numpy")
+def _row_factor(A: NDArray, k: int) -> float:
+    """``1 / ||A_k||`` (1 for a zero or overflowing row), as ``StandardForm.scaling``."""
+    norm = 0.0
+    for i in range(A.shape[1]):
+        norm += A[k, i] * A[k, i]
+    norm = math.sqrt(norm)
+    return 1.0 / norm if norm > 0.0 and math.isfinite(norm) else 1.0
+
+
+@njit(cache=True, error_model="numpy")
+def qp_judge(data: NDArray, work: NDArray, qp: NDArray, x: NDArray, lam: NDArray,
+             s: float, target: float, T: NDArray, sense: NDArray, warm: bool
+             ) -> tuple[int, float]:
+    """Tensions ``T = s x`` (m,) of DAQP's scaled solution ``x``, and whether they are
+    certified optimal with DAQP's multipliers ``lam`` (bounds, then equations).
+
+    With ``warm``, the bounds active at this answer (a nonzero multiplier) are marked
+    in DAQP's ``sense`` (m + n,) as the working set the next pose starts from.
+    Returns ``(code, residual)``: code 0 (optimal) or ``CODE_FALLBACK`` (the numpy
+    path judges the pose); the equilibrium residual ``||A T - b||`` (N, N m).
+    """
+    m, n = int(data[1]), int(data[2])
+    H, f, Ad, upper, _ = qp_views(qp, m, n)
+    for i in range(m):  # DAQP's types: 1 active, + 2 at the lower bound
+        sense[i] = 0 if not warm or lam[i] == 0.0 else (3 if lam[i] < 0.0 else 1)
+    A = work[:n * m].reshape((n, m))
+    b = work[n * m:n * m + n]
+    o = n * m + n
+    lb, ub = work[o + 2 * m:o + 3 * m], work[o + 3 * m:o + 4 * m]
+    for i in range(m):
+        if not (math.isfinite(x[i]) and math.isfinite(lam[i])):
+            return CODE_FALLBACK, np.nan
+        T[i] = x[i] * s
+    code, res = judge(A, b, lb, ub, T, data[6] * pose_scales(A, b, lb)[1])
+    if code != 0:
+        return CODE_FALLBACK, res
+    primal = dual = 0.0
+    gap = objective = 0.0
+    for k in range(n):
+        r = -upper[m + k]
+        for i in range(m):
+            r += Ad[k, i] * x[i]
+        primal = max(primal, abs(r))
+        gap += upper[m + k] * lam[m + k]
+    for i in range(m):
+        lo, hi = lb[i] / s, ub[i] / s
+        primal = max(primal, lo - x[i], x[i] - hi)
+        # The bound multiplier in its cone (>= 0 only with a finite upper bound, <= 0
+        # only with a finite lower one).
+        z = min(max(lam[i], -np.inf if math.isfinite(lo) else 0.0),
+                np.inf if math.isfinite(hi) else 0.0)
+        grad = H[i, i] * x[i] + f[i]
+        station = grad + z
+        for k in range(n):
+            station += Ad[k, i] * lam[m + k]
+        dual = max(dual, abs(station))
+        gap += grad * x[i] + (hi * z if z > 0.0 else 0.0) + (lo * z if z < 0.0 else 0.0)
+        objective += (0.5 * H[i, i] * x[i] + f[i]) * x[i]
+    relative = abs(gap) / max(1.0, abs(objective))
+    if primal <= target and dual <= target and relative <= target:
+        return 0, res
+    return CODE_FALLBACK, res
+
+
+
+class DaqpPose:
+    """One thread's DAQP workspace for the poses of one problem: DAQP's arrays (views
+    of one array, written in place by :func:`qp_problem`), the work space, and the
+    constraint types, in which the bounds active at the last answer mark the working
+    set DAQP starts the next pose from (unless ``warm`` is False).
+
+    ``daqp.solve`` is called as the ``qpsolvers:daqp`` backend calls it (a
+    ``daqp.Model`` updated per pose cost more here: its update alone took most of a
+    solve).
+
+    Parameters
+    ----------
+    m, n : int
+        Cables and degrees of freedom.
+    settings : dict
+        DAQP settings (``primal_tol`` ...), as the ``qpsolvers:daqp`` backend passes.
+    warm : bool
+        Whether to start each pose from the previous pose's active set.
+    work : int
+        Floats of work space (:func:`tension_opt.kernels.closed_form.work_size`).
+    """
+
+    def __init__(self, m: int, n: int, settings: dict[str, float], warm: bool,
+                 work: int) -> None:
+        import daqp
+
+        self.qp = np.zeros(qp_size(m, n))
+        self.H, self.f, self.Ad, self.upper, self.lower = qp_views(self.qp, m, n)
+        self.sense = np.zeros(m + n, dtype=np.intc)
+        self.sense[m:] = 5  # equality rows
+        self.work = np.empty(work)
+        self.settings = dict(settings)
+        self.warm = warm
+        self.iterations = 0
+        self._solve: Any = daqp.solve
+
+    def solve(self, data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
+              has_prev: bool, target: float, T: NDArray) -> tuple[int, float]:
+        """Tensions of one pose written to ``T`` (m,); returns ``(code, residual)`` with
+        code 0 (certified optimal), ``CODE_FALLBACK`` or ``CODE_BAD_INPUT``."""
+        code, s = qp_problem(data, pose, wrench, prev, has_prev, self.work, self.qp)
+        if code:
+            return code, np.nan
+        x, _, flag, info = self._solve(self.H, self.f, self.Ad, self.upper, self.lower,
+                                       self.sense, **self.settings)
+        self.iterations = info["iterations"]
+        if flag <= 0:  # infeasible, unbounded, iteration cap: the numpy path reports it
+            self.sense[:len(T)] = 0  # and the next pose starts cold
+            return CODE_FALLBACK, np.nan
+        return qp_judge(data, self.work, self.qp, x, info["lam"], s, target, T, self.sense,
+                        self.warm)

@@ -1,0 +1,171 @@
+"""Structure matrix and required wrench of one pose, compiled, for every robot kind.
+
+The reference is :meth:`tension_opt.robot.CableRobot.structure_matrices` and
+:meth:`~tension_opt.robot.CableRobot.required_wrench`; the kind codes below stand for
+the kinds of :mod:`tension_opt.kinds`. Rotations follow scipy's rotation vectors
+(through the unit quaternion, with its series for small angles), so the matrices agree
+with the numpy path to rounding.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit, prange
+from numpy.typing import NDArray
+
+from tension_opt.errors import InvalidInputError
+
+__all__ = [
+    "GEOMETRY_DEGENERATE",
+    "GEOMETRY_OK",
+    "GEOMETRY_OVERFLOW",
+    "KIND_CODES",
+    "geometry_batch",
+    "geometry_into",
+    "kind_code",
+    "rotation",
+]
+
+#: Kind names of :mod:`tension_opt.kinds` and their codes in the kernels.
+KIND_CODES = {"point3": 0, "planar_point2": 1, "planar3": 2, "spatial6": 3}
+#: Return codes of :func:`geometry_into`.
+GEOMETRY_OK, GEOMETRY_DEGENERATE, GEOMETRY_OVERFLOW = 0, 1, 2
+
+
+def kind_code(kind: str) -> int:
+    """The kernels' code of a robot kind name."""
+    try:
+        return KIND_CODES[kind]
+    except KeyError:
+        raise InvalidInputError(
+            f"no compiled geometry for robot kind {kind!r}; known: {sorted(KIND_CODES)}"
+        ) from None
+
+
+@njit(cache=True, error_model="numpy")
+def rotation(kind: int, pose: NDArray) -> tuple[float, float, float, float, float, float,
+                                                float, float, float]:
+    """Rotation matrix of a pose, row by row (identity if the kind does not rotate)."""
+    if kind == 2:
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        return c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0
+    if kind != 3:
+        return 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
+    rx, ry, rz = pose[3], pose[4], pose[5]
+    angle = math.sqrt(rx * rx + ry * ry + rz * rz)
+    if angle <= 1e-3:  # scipy's series of sin(angle / 2) / angle
+        a2 = angle * angle
+        scale = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
+    else:
+        scale = math.sin(0.5 * angle) / angle
+    x, y, z, w = scale * rx, scale * ry, scale * rz, math.cos(0.5 * angle)
+    x2, y2, z2, w2 = x * x, y * y, z * z, w * w
+    xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
+    return (x2 - y2 - z2 + w2, 2.0 * (xy - zw), 2.0 * (xz + yw),
+            2.0 * (xy + zw), -x2 + y2 - z2 + w2, 2.0 * (yz - xw),
+            2.0 * (xz - yw), 2.0 * (yz + xw), -x2 - y2 + z2 + w2)
+
+
+@njit(cache=True, error_model="numpy")
+def _position(kind: int, pose: NDArray) -> tuple[float, float, float]:
+    if kind == 1:
+        return pose[0], 0.0, pose[1]
+    if kind == 2:
+        return pose[0], pose[1], 0.0
+    return pose[0], pose[1], pose[2]
+
+
+@njit(cache=True, error_model="numpy")
+def _put(kind: int, M: NDArray, i: int, f0: float, f1: float, f2: float, f3: float,
+         f4: float, f5: float) -> None:
+    """Write the rows of a full wrench ``(f, m)`` that the kind keeps into column ``i``
+    of ``M`` (rows x, y, z for point3; x, z for planar_point2; x, y, moment z for
+    planar3; all six for spatial6)."""
+    if kind == 0:
+        M[0, i], M[1, i], M[2, i] = f0, f1, f2
+    elif kind == 1:
+        M[0, i], M[1, i] = f0, f2
+    elif kind == 2:
+        M[0, i], M[1, i], M[2, i] = f0, f1, f5
+    else:
+        M[0, i], M[1, i], M[2, i] = f0, f1, f2
+        M[3, i], M[4, i], M[5, i] = f3, f4, f5
+
+
+@njit(cache=True, error_model="numpy")
+def geometry_into(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
+                  weight: float, zero_length: float, pose: NDArray, wrench: NDArray,
+                  A: NDArray, b: NDArray) -> int:
+    """Structure matrix ``A`` (n, m) and required wrench ``b`` (n,) of one pose
+    (allocates nothing).
+
+    Parameters
+    ----------
+    kind : int
+        :data:`KIND_CODES` of the robot.
+    anchors, attachments : ndarray, shape (m, 3)
+        Drawing points (base frame) and attachment points (platform frame) (m).
+    com : ndarray, shape (3,)
+        Centre of mass in the platform frame (m).
+    weight : float
+        Platform weight ``mass * g`` (N).
+    zero_length : float
+        Cable length (m) at or below which a cable is on its drawing point.
+    pose : ndarray, shape (n,)
+    wrench : ndarray, shape (n,)
+        External wrench besides gravity (N, N m); zeros for none.
+    A, b : ndarray, shapes (n, m) and (n,)
+        Written.
+
+    Returns
+    -------
+    int
+        :data:`GEOMETRY_OK`, :data:`GEOMETRY_DEGENERATE` (a zero-length cable) or
+        :data:`GEOMETRY_OVERFLOW` (cable lengths beyond the float range).
+    """
+    R00, R01, R02, R10, R11, R12, R20, R21, R22 = rotation(kind, pose)
+    px, py, pz = _position(kind, pose)
+    code = GEOMETRY_OK
+    for i in range(anchors.shape[0]):
+        a0, a1, a2 = attachments[i, 0], attachments[i, 1], attachments[i, 2]
+        r0 = R00 * a0 + R01 * a1 + R02 * a2
+        r1 = R10 * a0 + R11 * a1 + R12 * a2
+        r2 = R20 * a0 + R21 * a1 + R22 * a2
+        v0 = anchors[i, 0] - (px + r0)
+        v1 = anchors[i, 1] - (py + r1)
+        v2 = anchors[i, 2] - (pz + r2)
+        length = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+        if not math.isfinite(length):
+            code = GEOMETRY_OVERFLOW
+        elif length <= zero_length and code == GEOMETRY_OK:
+            code = GEOMETRY_DEGENERATE
+        u0, u1, u2 = v0 / length, v1 / length, v2 / length
+        _put(kind, A, i, u0, u1, u2, r1 * u2 - r2 * u1, r2 * u0 - r0 * u2, r0 * u1 - r1 * u0)
+    # Gravity (0, 0, -weight) at the centre of mass R com; b = -(w_gravity + wrench).
+    c0 = R00 * com[0] + R01 * com[1] + R02 * com[2]
+    c1 = R10 * com[0] + R11 * com[1] + R12 * com[2]
+    m0 = c1 * weight if kind >= 2 else 0.0
+    m1 = -c0 * weight if kind >= 2 else 0.0
+    if kind == 0:
+        b[0], b[1], b[2] = 0.0, 0.0, weight
+    elif kind == 1:
+        b[0], b[1] = 0.0, weight
+    elif kind == 2:
+        b[0], b[1], b[2] = 0.0, 0.0, 0.0
+    else:
+        b[0], b[1], b[2], b[3], b[4], b[5] = 0.0, 0.0, weight, m0, m1, 0.0
+    for k in range(b.size):
+        b[k] = b[k] - wrench[k] + 0.0
+    return code
+
+
+@njit(cache=True, error_model="numpy", parallel=True)
+def geometry_batch(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
+                   weight: float, zero_length: float, poses: NDArray, wrenches: NDArray,
+                   A: NDArray, b: NDArray, codes: NDArray) -> None:
+    """:func:`geometry_into` over poses (N, n) in parallel: ``A`` (N, n, m), ``b`` (N, n)
+    and the return codes (N,) written; ``wrenches`` (N, n)."""
+    for k in prange(poses.shape[0]):
+        codes[k] = geometry_into(kind, anchors, attachments, com, weight, zero_length,
+                                 poses[k], wrenches[k], A[k], b[k])

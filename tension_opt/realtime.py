@@ -1,0 +1,424 @@
+"""A tension distributor built once and called per pose, for control loops.
+
+:class:`Distributor` holds everything about a problem that does not change from one
+pose to the next (the robot's data and the objective's terms packed in one array, the
+bounds, the compiled kernels of :mod:`tension_opt.kernels`, one work space per thread,
+the last answer of a stream) so that a call costs one compiled call and little else.
+
+- Problems the compiled closed form covers (null space of dimension 1 or 2; min-sum,
+  min-norm, pseudo-inverse, centred, and min-max in dimension 1; smoothing and rate
+  limits) run in compiled code, allocating nothing but the tensions returned.
+- ``backend="qpsolvers:daqp"`` with a quadratic objective (min-norm, pseudo-inverse,
+  centred, or any smoothed pose) builds the scaled dense QP in compiled code, keeps a
+  DAQP model per thread warm-started from the previous pose, and certifies DAQP's
+  answer with its own multipliers (:mod:`tension_opt.kernels.dense_qp`).
+- Poses these cannot settle (singular or badly conditioned structure matrices, a
+  cable on its drawing point, an infeasible pose or an uncertified answer of DAQP) and
+  every other problem or backend go through :func:`tension_opt.distribute`, so the
+  statuses are those of the numpy path.
+
+numba compiles the kernels on the first call of the first distributor and keeps the
+machine code on disk (``cache=True``): a later process loads it instead of compiling.
+A pose of another array type than a writeable, contiguous float64 vector (a read-only
+or strided view) compiles (once, then cached) a variant of the kernel.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from tension_opt.backends.base import Backend
+from tension_opt.backends.settings import check_options, solver_options
+from tension_opt.checks import as_finite
+from tension_opt.distribute import distribute
+from tension_opt.errors import InvalidInputError
+from tension_opt.problems import TensionProblem, as_problem
+from tension_opt.robot import CableRobot
+from tension_opt.solution import FEASIBILITY_TOL, STATUS_DTYPE, Status
+
+__all__ = ["Distributor", "RealtimeResult"]
+
+#: Accuracy targets (relative, of the scaled problem) that the compiled paths certify.
+ACCURACY_TARGETS = {"default": 1e-7, "high": 1e-10}
+
+
+def accuracy_target(accuracy: object) -> float:
+    """The target of an ``accuracy`` option: ``"default"`` (or None) 1e-7, ``"high"``
+    1e-10, or a number between 1e-14 and 1e-2.
+
+    Raises
+    ------
+    InvalidInputError
+        For another name or a number out of range.
+    """
+    if accuracy is None:
+        return ACCURACY_TARGETS["default"]
+    if isinstance(accuracy, str) and accuracy in ACCURACY_TARGETS:
+        return ACCURACY_TARGETS[accuracy]
+    if (isinstance(accuracy, int | float) and not isinstance(accuracy, bool)
+            and 1e-14 <= float(accuracy) <= 1e-2):
+        return float(accuracy)
+    raise InvalidInputError(
+        f"accuracy must be one of {list(ACCURACY_TARGETS)} or a number between 1e-14 and "
+        f"1e-2, got {accuracy!r}")
+
+_STATUS = (Status.OPTIMAL, Status.INFEASIBLE, Status.UNBOUNDED, Status.INACCURATE,
+           Status.SOLVER_ERROR)
+_FALLBACK, _BAD_INPUT = 9, 8
+_F64 = np.dtype(np.float64)
+#: Status values by kernel code (a last entry for codes of poses solved otherwise).
+_STATUS_VALUES = np.array([s.value for s in _STATUS] + [""], dtype=STATUS_DTYPE)
+
+
+@dataclass(eq=False, slots=True)
+class RealtimeResult:
+    """Answer of a :class:`Distributor` call.
+
+    Attributes
+    ----------
+    tensions : ndarray, shape (m,) or (N, m)
+        Cable tensions (N), NaN where the pose has no solution; (m,) for one pose.
+    status : Status or ndarray of Status values, shape (N,)
+        As :attr:`tension_opt.TensionSolution.status` (a member for one pose).
+    unique : bool or ndarray of bool, shape (N,)
+        False where the optimum was a tie broken to the minimum 2-norm.
+    residual : float or ndarray, shape (N,)
+        Equilibrium residual ``||A T - b||`` (N, N m); NaN where not solved.
+    infeasibility : float or ndarray, shape (N,)
+        For infeasible poses where known, the smallest largest bound violation (N).
+    compiled : bool or ndarray of bool, shape (N,)
+        Whether the compiled kernel answered (else the numpy path did).
+    """
+
+    tensions: NDArray
+    status: Any
+    unique: Any
+    residual: Any
+    infeasibility: Any
+    compiled: Any
+
+    @property
+    def success(self) -> Any:
+        """Whether the pose (each pose) was solved to optimality."""
+        return np.asarray(self.status == Status.OPTIMAL) if np.ndim(self.status) else (
+            self.status == Status.OPTIMAL)
+
+
+class Distributor:
+    """A tension distribution problem for one robot, built once, called per pose.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    objective : str or TensionProblem
+        As in :func:`tension_opt.distribute`.
+    backend : str or Backend
+        As in :func:`tension_opt.distribute`. ``"auto"`` and ``"closed_form"`` use the
+        compiled closed form where it applies, ``"qpsolvers:daqp"`` the compiled DAQP
+        path (see the module docstring).
+    **options
+        Backend options as in :func:`tension_opt.distribute`. ``warm_start`` (default
+        True here) starts DAQP from the previous pose's active set.
+
+    Calling
+    -------
+    ``solver(pose, wrench=None, previous=None)`` with a pose (n,) or poses (N, n), an
+    external wrench (n,) or (N, n) (N, N m) and, for smoothed or rate-limited problems,
+    the previous tensions (m,) (or (N, m), one row per pose, solved independently).
+    Without ``previous``, a smoothed problem continues the stream: each pose is smoothed
+    against the last optimal tensions this distributor returned in this thread (the
+    first pose of a stream is solved unsmoothed, as :func:`tension_opt.distribute` does
+    for a sequence); :meth:`reset` starts a new stream. Returns a
+    :class:`RealtimeResult`.
+
+    Threads
+    -------
+    One instance may be shared by threads: each thread has its own work space (and
+    DAQP model), the constant data are never written after construction, and the last
+    answer of a stream is kept per thread (each thread's calls form their own stream).
+    """
+
+    def __init__(self, robot: CableRobot, objective: str | TensionProblem = "min_sum",
+                 backend: str | Backend = "auto", **options: Any) -> None:
+        if not isinstance(robot, CableRobot):
+            raise InvalidInputError(f"robot must be a CableRobot, got {type(robot).__name__}")
+        check_options(options)
+        self.robot = robot
+        self.problem = as_problem(objective)
+        self.backend = backend
+        self.options = dict(options)
+        self._local = threading.local()
+        # Checks the problem against the robot once (bounds, weights, objective).
+        form = self.problem.standard_form(robot, robot.default_home()[None, :],
+                                          previous=np.zeros(robot.m))
+        self._sequential = self.problem.is_sequential
+        self._m, self._shape = robot.m, (robot.dof,)
+        self._no_wrench, self._no_prev = np.zeros(robot.dof), np.zeros(robot.m)
+        self._target = accuracy_target(self.options.get("accuracy"))
+        self._data: NDArray | None = None
+        self._daqp: dict[str, Any] | None = None
+        closed = self._closed_form_path()
+        if form.G is None and (closed or self._daqp_path()):
+            from tension_opt.kernels import closed_form
+
+            self._data = self._pack()
+            self._kernels = closed_form
+            self._work_size = int(closed_form.work_size(robot.m, robot.dof))
+            if not closed:
+                self._daqp = {"settings": solver_options("daqp", self.options.get("accuracy")),
+                              "warm": bool(self.options.get("warm_start", True))}
+
+    # ------------------------------------------------------------------ setup
+    def _kernel_covers(self) -> bool:
+        """Whether the robot kind and the per-pose data suit the compiled kernels."""
+        problem = self.problem
+        if self.robot.kind not in ("point3", "planar_point2", "planar3", "spatial6"):
+            return False
+        return not any(np.ndim(x) > 1 for x in (problem.t_min, problem.t_max,
+                                                problem.reference))
+
+    def _closed_form_path(self) -> bool:
+        """Whether the compiled closed form solves this problem exactly as the numpy
+        closed form would."""
+        robot, problem = self.robot, self.problem
+        if not (isinstance(self.backend, str) and self.backend in ("auto", "closed_form")):
+            return False
+        if set(self.options) - {"accuracy"} or robot.m - robot.dof not in (1, 2):
+            return False
+        if not self._kernel_covers():
+            return False
+        if problem.objective.name == "min_max":
+            return robot.m - robot.dof == 1 and not problem.smoothing
+        return True
+
+    def _daqp_path(self) -> bool:
+        """Whether the compiled DAQP path applies: DAQP asked for, a quadratic objective
+        (or a smoothed one, quadratic once a stream has begun), no min-max term."""
+        if not (isinstance(self.backend, str) and self.backend == "qpsolvers:daqp"):
+            return False
+        if set(self.options) - {"accuracy", "warm_start"} or not self._kernel_covers():
+            return False
+        try:
+            import daqp  # noqa: F401
+        except ImportError:
+            return False
+        objective = self.problem.objective
+        return objective.name != "min_max" and (not objective.linear
+                                                or bool(self.problem.smoothing))
+
+    def _pack(self) -> NDArray:
+        """The constant data of the kernels (:func:`closed_form.pack`)."""
+        from tension_opt.kernels.closed_form import pack
+        from tension_opt.kernels.geometry import kind_code
+
+        robot, problem, m = self.robot, self.problem, self.robot.m
+        lb, ub = problem.bounds(robot, 1)
+        reference = None
+        if problem.objective.uses_reference and problem.reference is not None:
+            reference = np.broadcast_to(problem.reference, (1, m)).astype(float)
+        terms = problem.objective.terms(problem.cable_weights(m), lb, ub, reference)
+        rate = np.full(m, np.inf) if problem.rate_limit is None else np.broadcast_to(
+            np.asarray(problem.rate_limit, dtype=float), (m,))
+        minmax = terms.minmax is not None
+        v = np.ones(m) if not minmax else np.asarray(terms.minmax, dtype=float)
+        stacked = np.stack([terms.q[0], terms.c[0], v, lb[0], ub[0], rate])
+        return pack(kind_code(robot.kind), robot.anchors, robot.attachments, robot.com,
+                    robot.mass * robot.g, 1e-12 * max(1.0, float(np.abs(robot.anchors).max())),
+                    float(problem.smoothing), max(FEASIBILITY_TOL, 10.0 * self._target),
+                    minmax, stacked)
+
+    def _thread_work(self) -> Any:
+        """This thread's work space (a float array, or the DAQP workspace), made once."""
+        if self._daqp is None:
+            work: Any = np.empty(self._work_size)
+        else:
+            from tension_opt.kernels.dense_qp import DaqpPose
+
+            work = DaqpPose(self.robot.m, self.robot.dof, self._daqp["settings"],
+                            self._daqp["warm"], self._work_size)
+        self._local.work = work
+        return work
+
+    # ------------------------------------------------------------------- calls
+    def reset(self) -> None:
+        """Forget the last answer of this thread's stream (the next smoothed pose is
+        solved unsmoothed, unless given ``previous``)."""
+        self._local.last = None
+
+    def __call__(self, pose: ArrayLike, wrench: ArrayLike | None = None,
+                 previous: ArrayLike | None = None) -> RealtimeResult:
+        """Tensions of one pose (n,) or a batch (N, n); see the class docstring."""
+        if (wrench is None and previous is None and type(pose) is np.ndarray
+                and pose.dtype is _F64 and pose.shape == self._shape
+                and self._data is not None):
+            return self._one(pose, self._no_wrench, None, None)
+        return self._general(pose, wrench, previous)
+
+    def _general(self, pose: ArrayLike, wrench: ArrayLike | None,
+                 previous: ArrayLike | None) -> RealtimeResult:
+        """Any call the fast test of :meth:`__call__` turned away."""
+        p = np.ascontiguousarray(pose, dtype=float)
+        n, m = self.robot.dof, self.robot.m
+        if p.shape == (n,) and self._data is not None and (
+                wrench is None or np.shape(wrench) == (n,)) and (
+                previous is None or np.shape(previous) == (m,)):
+            w = self._no_wrench if wrench is None else np.ascontiguousarray(wrench,
+                                                                             dtype=float)
+            return self._one(p, w, wrench, previous)
+        result = self._many(self.robot.as_poses(pose), wrench, previous)
+        if p.ndim != 1:
+            return result
+        return RealtimeResult(result.tensions[0], Status(result.status[0]),
+                              bool(result.unique[0]), float(result.residual[0]),
+                              float(result.infeasibility[0]), bool(result.compiled[0]))
+
+    def _stream_start(self, previous: ArrayLike | None) -> NDArray | None:
+        """The tensions a sequential problem smooths against, or None."""
+        if not self._sequential:
+            return None
+        if previous is not None:
+            prev = as_finite("previous", previous)
+            if prev.shape != (self.robot.m,):
+                raise InvalidInputError(
+                    f"previous must have shape ({self.robot.m},), got {prev.shape}")
+            return prev
+        return getattr(self._local, "last", None)
+
+    def _one(self, p: NDArray, w: NDArray, wrench: ArrayLike | None,
+             previous: ArrayLike | None) -> RealtimeResult:
+        """One pose through one compiled call (the numpy path where it declines);
+        ``w`` the wrench as a float vector, ``wrench`` as given (None for none)."""
+        local = self._local
+        try:
+            work = local.work
+        except AttributeError:
+            work = self._thread_work()
+        prev = None
+        if self._sequential:
+            prev = self._stream_start(previous)
+        T = np.empty(self._m)
+        has_prev = prev is not None
+        if self._daqp is None:
+            code, unique, res, infeas = self._kernels.solve_one(
+                self._data, p, w, prev if has_prev else self._no_prev, has_prev, work, T)
+        else:
+            code, res = work.solve(self._data, p, w, prev if has_prev else self._no_prev,
+                                   has_prev, self._target, T)
+            unique, infeas = True, np.nan
+        if code < _BAD_INPUT:
+            status = _STATUS[code]
+            if self._sequential and code == 0:
+                local.last = T.copy()
+            return RealtimeResult(T, status, unique, res, infeas, True)
+        if code == _BAD_INPUT:
+            self.robot.as_poses(p)
+            as_finite("wrench", w)
+        sol = distribute(self.robot, p, self.problem, self.backend, wrench=wrench,
+                         previous=prev, **self.options)
+        status = Status(sol.status[0])
+        self._remember(status, sol.tensions[0])
+        return RealtimeResult(sol.tensions[0], status, bool(sol.unique[0]),
+                              float(sol.residual[0]), float(sol.infeasibility[0]), False)
+
+    def _remember(self, status: Status, tensions: NDArray) -> None:
+        if self._sequential and status == Status.OPTIMAL:
+            self._local.last = tensions.copy()
+
+    def _many(self, p: NDArray, wrench: ArrayLike | None,
+              previous: ArrayLike | None) -> RealtimeResult:
+        """A batch: in parallel when poses are independent, in order for a stream."""
+        independent = previous is not None and np.ndim(previous) == 2
+        if self._data is None or self._daqp is not None:
+            prev = previous if independent else self._stream_start(previous)
+            return self._numpy(p, wrench, prev, np.arange(len(p)), None)
+        w = self._wrenches(len(p), wrench)
+        if self._sequential and not independent:
+            return self._sequence(p, w, wrench, self._stream_start(previous))
+        return self._batch(p, w, wrench, previous if independent else None)
+
+    def _wrenches(self, N: int, wrench: ArrayLike | None) -> NDArray:
+        """External wrenches (N, n) of a batch, or (1, n) for one for every pose."""
+        n = self.robot.dof
+        if wrench is None:
+            return self._no_wrench[None, :]
+        w = as_finite("wrench", wrench)
+        if w.shape not in ((n,), (N, n)):
+            raise InvalidInputError(f"wrench must have shape ({n},) or ({N}, {n}), "
+                                    f"got {w.shape}")
+        return np.ascontiguousarray(w.reshape(-1, n))
+
+    def _batch(self, p: NDArray, w: NDArray, wrench: ArrayLike | None,
+               previous: ArrayLike | None) -> RealtimeResult:
+        N, m = len(p), self.robot.m
+        has_prev = previous is not None
+        prev = (np.ascontiguousarray(np.broadcast_to(as_finite("previous", previous), (N, m)))
+                if has_prev else self._no_prev[None, :])
+        T, info, codes = np.empty((N, m)), np.empty((N, 3)), np.empty(N, dtype=np.int64)
+        self._kernels.solve_batch(self._data, np.ascontiguousarray(p), w, prev, has_prev,
+                                  T, info, codes)
+        redo = np.flatnonzero(codes >= _BAD_INPUT)
+        return self._numpy(p, wrench, previous, redo, (T, info, codes))
+
+    def _numpy(self, p: NDArray, wrench: ArrayLike | None, previous: ArrayLike | None,
+               redo: NDArray, compiled: tuple[NDArray, NDArray, NDArray] | None
+               ) -> RealtimeResult:
+        """Results of a batch: the compiled ones, and ``redo`` poses by the numpy path."""
+        N, m = len(p), self.robot.m
+        if compiled is None:
+            T, info, codes = np.empty((N, m)), np.empty((N, 3)), np.zeros(N, dtype=np.int64)
+        else:
+            T, info, codes = compiled
+        status = _STATUS_VALUES[np.minimum(codes, len(_STATUS))]
+        done = np.ones(N, dtype=bool)
+        if len(redo):
+            sub = lambda x: x if x is None or np.ndim(x) < 2 else np.asarray(x)[redo]  # noqa: E731
+            sol = distribute(self.robot, p[redo], self.problem, self.backend,
+                             wrench=sub(wrench), previous=sub(previous), **self.options)
+            T[redo], status[redo] = sol.tensions, sol.status
+            info[redo] = np.column_stack([sol.unique, sol.residual, sol.infeasibility])
+            done[redo] = False
+            if self.problem.is_sequential and np.ndim(previous) < 2:
+                ok = np.flatnonzero(sol.status == Status.OPTIMAL)
+                if len(ok):
+                    self._local.last = sol.tensions[ok[-1]].copy()
+        return RealtimeResult(T, status, info[:, 0] != 0.0, info[:, 1], info[:, 2], done)
+
+    def _sequence(self, p: NDArray, w: NDArray, wrench: ArrayLike | None,
+                  start: NDArray | None) -> RealtimeResult:
+        """A stream in order through the compiled kernel; a pose it declines is solved
+        by the numpy path against the same previous tensions, and the stream goes on."""
+        N, m = len(p), self.robot.m
+        T, info, codes = np.empty((N, m)), np.empty((N, 3)), np.empty(N, dtype=np.int64)
+        last = np.full(m, np.nan) if start is None else np.array(start, dtype=float)
+        done = np.ones(N, dtype=bool)
+        fallback: dict[int, Status] = {}
+        work = np.empty(self._work_size)
+        poses = np.ascontiguousarray(p)
+        k = 0
+        while k < N:
+            k = self._kernels.solve_sequence(self._data, poses, w, last,
+                                             bool(np.isfinite(last).all()), T, info, codes,
+                                             k, work)
+            if k < N:
+                prev = last if np.isfinite(last).all() else None
+                sol = distribute(self.robot, p[k], self.problem, self.backend,
+                                 wrench=None if wrench is None or np.ndim(wrench) < 2
+                                 else np.asarray(wrench)[k], previous=prev, **self.options)
+                T[k], info[k] = sol.tensions[0], (sol.unique[0], sol.residual[0],
+                                                  sol.infeasibility[0])
+                fallback[k] = Status(sol.status[0])
+                done[k] = False
+                if sol.status[0] == Status.OPTIMAL:
+                    last = sol.tensions[0].copy()
+                k += 1
+        if np.isfinite(last).all():
+            self._local.last = last
+        status = _STATUS_VALUES[np.minimum(codes, len(_STATUS))]
+        for i, value in fallback.items():
+            status[i] = value
+        return RealtimeResult(T, status, info[:, 0] != 0.0, info[:, 1], info[:, 2], done)
