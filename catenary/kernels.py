@@ -124,7 +124,7 @@ def solve_length_one(at_b: bool, x: float, z: float, T: float, w: float, inv_EA:
                      rtol: float, max_iter: int, out: NDArray) -> int:
     """Taut catenary of one cable with tension ``T`` at end B (``at_b``) or A.
 
-    Newton in (end angle, ``L0``) as :func:`catenary.solve.length._newton_length`;
+    Newton in (end angle, ``L0``) as :func:`catenary.solve.length_newton.newton_length`;
     ``out`` (5,) gets ``(H, V_B, V_A, L0, iterations)``. Returns :data:`CONVERGED`
     (certified) or :data:`FALLBACK`.
     """
@@ -234,7 +234,7 @@ def _nanmax(a: float, b: float) -> float:
 
 @njit(cache=True, error_model="numpy")
 def _exponent(scale: float) -> int:
-    """:func:`catenary.solve.common.binary_exponent` of one number."""
+    """:func:`catenary.elastic.power_of_two` of one number."""
     if scale == 0.0 or not math.isfinite(scale):
         return 0
     return math.frexp(abs(scale))[1]
