@@ -11,8 +11,12 @@ Each cell becomes one row of a tidy table. :func:`run` composes the parts:
   ``--executor dask:tcp://host:8786``);
 - :mod:`benchmarks.store`: the rows in an SQLite database, one transaction per chunk of
   cells (concurrent runs and kills lose nothing and keep nothing torn), exported to
-  ``results.csv`` and ``traces.npz`` after the run; a new run skips the cells already
-  stored unless told to redo them.
+  ``results.csv`` and ``traces.npz`` after the run. Each run is recorded with a key of
+  its invocation (the cells and the time limit) and stamps its rows with its id and the
+  time each was measured; a run resumes an *interrupted* run of the same invocation on
+  this machine (skipping the cells it stored) and otherwise measures every cell, so the
+  results that came with a clone are never taken for this machine's (they stay as the
+  labelled reference of the report until measured again).
 
 The names of those modules that callers use are importable from here too.
 """
@@ -76,7 +80,9 @@ from benchmarks.store import (
     TRACES_FILE,
     ResultsStore,
     StoreError,
+    invocation_key,
     machine_label,
+    utc_now,
 )
 from tension_opt.executors import Executor
 
@@ -112,6 +118,7 @@ __all__ = [
     "chunk_cells",
     "default_suite",
     "executor_machines",
+    "invocation_key",
     "machine_label",
     "plan",
     "reference_solution",
@@ -136,7 +143,7 @@ def run(
     executor: str | Executor | Any | None = None,
     chunk_size: int | None = None,
 ) -> pd.DataFrame:
-    """Run the cells not yet in the store and return the whole stored table.
+    """Run the cells (those an interrupted run left, when resuming); return the table.
 
     Parameters
     ----------
@@ -145,7 +152,9 @@ def run(
     store : ResultsStore, optional
         Default: ``benchmarks/results``.
     redo : bool
-        Run the cells again even if they are stored (their rows are replaced).
+        Start afresh even where an interrupted run of the same invocation (cells and
+        time limit) on this machine could be resumed (its stored cells skipped); rows
+        of finished runs, or imported with a clone, are always measured again.
     time_limit : float
         Budget of each cell (s). It is passed to the solvers and checked between chunks
         of poses; with ``isolate`` and no executor, a cell still running :data:`GRACE`
@@ -165,9 +174,8 @@ def run(
         Dask client. The cells go in chunks of at most ``chunk_size`` cells of one
         scenario; the rows of a chunk are stored in one transaction as it comes back,
         in order, so an interrupted run keeps every chunk returned before. Rows carry
-        the machine of the worker that ran them, and rows of the cluster's machines
-        count as done. An executor named by a string is closed at the end; one passed
-        in is left open.
+        the machine of the worker that ran them. An executor named by a string is
+        closed at the end; one passed in is left open.
         None (default): in this process, as described under ``isolate``.
     chunk_size : int, optional
         Cells per chunk sent to the executor (default: up to :data:`CHUNK_CELLS`, fewer
@@ -193,26 +201,39 @@ def run(
     """
     store = store or ResultsStore()
     keep = trace_backends(cells)
+    run_id, todo = _begin(cells, store, redo, time_limit)
     if executor is not None:
-        with open_executor(executor) as runner:
-            todo = _todo(cells, store, redo, executor_machines(runner))
-            size = _chunk_size(len(todo), runner.workers) if chunk_size is None else chunk_size
-            results = chunk_results(runner, todo, time_limit, size, work=run_chunk)
-            sizes = [len(chunk) for chunk in chunk_cells(todo, size)]
-            return _collect(todo, results, store, keep, progress, sizes)
-    todo = _todo(cells, store, redo)
-    if isolate:
-        results = run_isolated(todo, time_limit, GRACE, run=run_cell)
+        frame = _on_executor(executor, todo, store, keep, progress, run_id, time_limit,
+                             chunk_size)
     else:
-        results = _in_process(todo, time_limit)
-    return _collect(todo, results, store, keep, progress)
+        if isolate:
+            results = run_isolated(todo, time_limit, GRACE, run=run_cell)
+        else:
+            results = _in_process(todo, time_limit)
+        frame = _collect(todo, results, store, keep, progress, run_id)
+    store.finish_run(run_id)
+    return frame
 
 
-def _todo(cells: Sequence[Cell], store: ResultsStore, redo: bool,
-          machines: set[str] | None = None) -> list[Cell]:
-    """The cells not stored yet by ``machines`` (default: this one); all with ``redo``."""
-    done = set() if redo else store.done(machines)
-    return [c for c in cells if c.key not in done]
+def _on_executor(executor: str | Executor | Any, todo: list[Cell], store: ResultsStore,
+                 keep: set[str], progress: bool, run_id: str, time_limit: float,
+                 chunk_size: int | None) -> pd.DataFrame:
+    """The cells ``todo`` in chunks on ``executor``, stored as chunks come back."""
+    with open_executor(executor) as runner:
+        size = _chunk_size(len(todo), runner.workers) if chunk_size is None else chunk_size
+        results = chunk_results(runner, todo, time_limit, size, work=run_chunk)
+        sizes = [len(chunk) for chunk in chunk_cells(todo, size)]
+        return _collect(todo, results, store, keep, progress, run_id, sizes)
+
+
+def _begin(cells: Sequence[Cell], store: ResultsStore, redo: bool, time_limit: float
+           ) -> tuple[str, list[Cell]]:
+    """Start (or, unless ``redo``, resume) the run of this invocation; its id and the
+    cells it measures: all of them, or those the resumed run has not stored."""
+    invocation = invocation_key([c.key for c in cells], time_limit=time_limit)
+    run_id, resumed = store.start_run(invocation, len(cells), resume=not redo)
+    done = store.done(run=run_id) if resumed else set()
+    return run_id, [c for c in cells if c.key not in done]
 
 
 def _chunk_size(cells: int, workers: int) -> int:
@@ -228,8 +249,9 @@ def _in_process(cells: Sequence[Cell], time_limit: float) -> Results:
 
 
 def _collect(todo: Sequence[Cell], results: Results, store: ResultsStore, keep: set[str],
-             progress: bool, sizes: Sequence[int] = ()) -> pd.DataFrame:
-    """Store the results chunk by chunk (with traces if kept); return the exported table.
+             progress: bool, run_id: str, sizes: Sequence[int] = ()) -> pd.DataFrame:
+    """Store the results chunk by chunk (with traces if kept), each row stamped with the
+    run and the time it was stored; return the exported table.
 
     ``sizes`` are the lengths of the executor's chunks, each stored in one transaction;
     without them each cell is a chunk of its own.
@@ -239,7 +261,9 @@ def _collect(todo: Sequence[Cell], results: Results, store: ResultsStore, keep: 
     chunks = _chunks(results, sizes)
     try:
         for chunk in chunks:
-            store.append_many([(result.row, result.trace if keeps_trace(cell, keep) else None)
+            stamp = {"run": run_id, "measured_at": utc_now()}
+            store.append_many([({**result.row, **stamp},
+                                result.trace if keeps_trace(cell, keep) else None)
                                for cell, result in chunk])
             if bar is not None:
                 bar.set_postfix_str("/".join(chunk[-1][0].key), refresh=False)

@@ -1,7 +1,8 @@
-"""Metrics of the benchmark: smoothness of tension series, timing aggregates, sag.
+"""Metrics of the benchmark: smoothness of tension series, timing aggregates, accuracy, sag.
 
 Functions are pure functions of arrays (vectorised with numpy) and know nothing about
-solvers or files; only :func:`thesis_sag` looks at a robot, to place its cables.
+solvers or files; only :func:`thesis_sag` looks at a robot, to place its cables, and
+:func:`objective_excess` at a problem form, to measure on its scaled problem.
 Tension series have shape (N, m): N consecutive poses of a trajectory, m cables, in
 newtons. NaN entries (poses without a solution) are skipped: a difference involving a
 NaN does not count.
@@ -16,9 +17,14 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt import CableRobot
+from tension_opt.problems import StandardForm
+from tension_opt.scaled import scaled_batch
 
 #: Shift of the shifted geometric mean, in the unit of the values (qpbenchmark's choice).
 DEFAULT_SHIFT = 10.0
+#: Shift of the shifted geometric means of the certificate's measures (dimensionless):
+#: about the rounding of double precision, so that exact answers all count alike.
+RESIDUAL_SHIFT = 1e-15
 
 
 def _series(tensions: ArrayLike) -> NDArray:
@@ -182,6 +188,25 @@ def relative_shifted_geometric_means(
     }, dtype=float)
     best = means.min()
     return (means / best if best > 0 else means * np.nan).sort_values()
+
+
+def objective_excess(form: StandardForm, tensions: ArrayLike, exact: ArrayLike) -> NDArray:
+    """Objective excess of ``tensions`` over the optimum ``exact`` (both (N, m), N).
+
+    Measured as a certificate's duality gap is (:mod:`tension_opt.certificate`): on the
+    scaled problem (objective over its size), relative to ``max(1, |f*|)`` there; so an
+    answer certified at a target has an excess of about the target at most.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        Excess (dimensionless; negative where the answer is below the optimum, i.e. not
+        quite feasible); NaN where either is missing.
+    """
+    batch = scaled_batch(form)
+    f = batch.objective(batch.lift(np.asarray(tensions, dtype=float)))
+    f_star = batch.objective(batch.lift(np.asarray(exact, dtype=float)))
+    return (f - f_star) / np.maximum(1.0, np.abs(f_star))
 
 
 def percentiles(samples: ArrayLike, q: Sequence[float] = (50.0, 95.0)) -> NDArray:

@@ -172,6 +172,9 @@ DEFAULT_SUITE: dict[str, SuiteRule] = {
     "cogiro_trajectory": SuiteRule(),
     "cogiro_random": SuiteRule(enabled=False),
     "thesis_long": SuiteRule(backends=FAST_BACKENDS, joint=False),
+    "random_point3_m6": SuiteRule(),
+    "random_point3_m7_symmetric": SuiteRule(),
+    "random_spatial6_m7": SuiteRule(),
 }
 
 

@@ -26,6 +26,13 @@ from numpy.typing import NDArray
 
 from benchmarks import metrics
 from benchmarks.plan import ALL_SETTINGS
+from benchmarks.report_tables import (
+    backend_style,
+    certified_summary,
+    provenance,
+    reference_comparison,
+    solved_cells,
+)
 from benchmarks.runner import (
     JUMP_FRACTION,
     MAX_CHUNKS,
@@ -112,38 +119,9 @@ def with_time_ratio(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def backend_summary(frame: pd.DataFrame) -> pd.DataFrame:
-    """Per backend over one scenario's cells at one setting: success, time, accuracy.
-
-    Columns: ``cells ok``, ``success`` (mean success rate of the cells that ran),
-    ``time ratio (sgm)`` (shifted geometric mean of the median time per pose over the
-    cells the backend can express, shift 10 us, relative to the best; failures count
-    as the slowest time),
-    ``median us/pose``, ``p95 us/pose``, ``iterations``, ``max gap``,
-    ``max residual (N)``, ``max bound viol. (N)``.
-    """
-    ran = frame[frame["status"].isin(["ok", "time_limit"])]
-    if ran.empty:
-        return pd.DataFrame()
-    ok = frame[frame["status"] == "ok"]
-    attempted = frame[frame["status"].isin(["ok", "time_limit", "error"])]
-    sgm = metrics.relative_shifted_geometric_means(
-        attempted.assign(t=attempted["time_us_median"].where(attempted["status"] == "ok")),
-        "t", instance=("scenario", "problem", "setting"))
-    g = ran.groupby("backend")
-    table = pd.DataFrame({
-        "cells ok": ok.groupby("backend").size(),
-        "success": g["success_rate"].mean(),
-        "time ratio (sgm)": sgm,
-        "median us/pose": g["time_us_median"].median(),
-        "p95 us/pose": g["time_us_p95"].max(),
-        "iterations": g["iterations_mean"].mean(),
-        "max gap": g["objective_gap_max"].max(),
-        "max residual (N)": g["residual_max"].max(),
-        "max bound viol. (N)": g["bound_violation_max"].max(),
-    })
-    table["cells ok"] = table["cells ok"].fillna(0).astype(int)
-    table.index.name = "backend"
-    return table.sort_values(["time ratio (sgm)", "median us/pose"])
+    """Per backend and setting over the cells of ``frame``: certified success, time,
+    accuracy (:func:`benchmarks.report_tables.certified_summary`)."""
+    return certified_summary(frame)
 
 
 def _pick_trace_backend(rows: pd.DataFrame) -> pd.DataFrame:
@@ -282,10 +260,14 @@ def plot_performance_profile(frame: pd.DataFrame, path: Path | None = None) -> F
     With ``path`` the figure is saved there and closed; without, it is returned open.
 
     Instances are the (scenario, problem) pairs that every backend in the table ran;
-    a cell that is not ok there (unsupported, failed) counts as never solved.
+    a cell that is not ok there (unsupported, failed), or that certifies fewer poses
+    than the best backend of the instance, counts as never solved. Each solver has its
+    colour and each backend family its line style (:func:`backend_style`).
     """
     base = frame[(frame["setting"] == BASE_SETTING) & (frame["status"] != "not_installed")]
-    ranked = with_time_ratio(base)
+    # Only cells that certified as many poses as the best backend count as solved.
+    ranked = with_time_ratio(base.assign(status=base["status"].where(
+        solved_cells(base), "uncertified")))
     if ranked["time_ratio"].notna().sum() == 0:
         return None
     index = ["scenario", "problem"]
@@ -302,7 +284,7 @@ def plot_performance_profile(frame: pd.DataFrame, path: Path | None = None) -> F
     for backend in _backend_order(ranked):
         if backend in wide:
             ax.step(taus, metrics.performance_profile(wide[backend].to_numpy(), taus),
-                    where="post", label=backend, lw=1.2)
+                    where="post", label=backend, **{"linewidth": 1.2, **backend_style(backend)})
     ax.set_xscale("log")
     ax.set_xlabel("time per pose / best time per pose of the instance")
     ax.set_ylabel("fraction of instances")
@@ -351,8 +333,19 @@ def _settings_lines() -> list[str]:
         "problem x setting; summaries use the shifted geometric mean (shift 10 us) of the "
         "median time per pose over the cells a backend can express (errors and time-outs "
         "count as the slowest time), relative to the best.",
+        "- Success: the share of a cell's poses labelled optimal, which means certified: "
+        "primal residual, dual residual and duality gap of the scaled problem (tensions "
+        "over a reference tension, equilibrium rows over their norms, objective of order "
+        "one) all within the accuracy target (default 1e-7, high 1e-10), from the solver's "
+        "own multipliers where it gives them (`tension_opt.certificate`).",
+        "- Certified summary (qpbenchmark style): time ratio and certified cost count a "
+        "cell that certifies fewer poses than the best backend of its instance as a "
+        "failure (at the slowest time); `certified us` is a cell's time over its certified "
+        "poses; residuals and gap are shifted geometric means (shift 1e-15) of each cell's.",
         "- Objective gap: largest `|f - f_ref| / max(|f_ref|, 1)` over the poses, against "
-        f"{' or '.join(REFERENCE_BACKENDS)} (high accuracy), whichever applies first.",
+        f"{' or '.join(REFERENCE_BACKENDS)} (high accuracy), whichever applies first; "
+        "`wrong optimal` counts poses labelled optimal whose objective exceeds that "
+        "exact optimum by more than the target on the scaled problem (`max excess`).",
         f"- Smoothing weight {SMOOTHING:g} (1/N); rate limit {RATE_FRACTION:g} m g per step; "
         f"jumps: steps where some tension changes by more than {JUMP_FRACTION:g} m g.",
         "- Centred problem on the study's robot (no upper bound): t_max = 4 m g.",
@@ -362,17 +355,26 @@ def _settings_lines() -> list[str]:
     ]
 
 
-def build_markdown(frame: pd.DataFrame, figures: dict[str, str]) -> str:
-    """The report text for ``frame`` with the given figure files (name -> caption)."""
+def build_markdown(frame: pd.DataFrame, figures: dict[str, str],
+                   runs: pd.DataFrame | None = None,
+                   reference: pd.DataFrame | None = None) -> str:
+    """The report text for ``frame`` with the given figure files (name -> caption), the
+    runs of its results database and the reference rows that came with the results."""
     lines = ["# Tension distribution benchmark", "",
              f"Generated {datetime.now(UTC):%Y-%m-%d %H:%M} UTC by `python -m benchmarks`. "
              f"{len(frame)} cells.", "", "## Machine and libraries", "",
              "| item | value |", "|---|---|"]
     lines += [f"| {k} | {v} |" for k, v in machine_info()]
     if "machine" in frame and not frame.empty:
-        measured = ", ".join(f"{m} ({n} cells)" for m, n in
-                             frame["machine"].fillna("unknown").value_counts().items())
-        lines += ["", f"Cells measured on: {measured}."]
+        lines += ["", "## Where and when the rows were measured", "",
+                  *provenance(frame, pd.DataFrame(columns=["id"]) if runs is None else runs)]
+        compared = reference_comparison(
+            frame, pd.DataFrame() if reference is None else reference,
+            pd.DataFrame(columns=["id"]) if runs is None else runs)
+        if not compared.empty:
+            lines += ["", "This machine against the reference, on the cells measured in "
+                      "both (median time ratio, mean success):", "",
+                      markdown_table(compared)]
     lines += ["", "## Settings", "", *_settings_lines(), ""]
     if frame.empty:
         return "\n".join([*lines, "No results yet.", ""])
@@ -387,13 +389,14 @@ def build_markdown(frame: pd.DataFrame, figures: dict[str, str]) -> str:
                   f"Median time per pose (us) per backend ({BASE_SETTING}):", "",
                   markdown_table(times), ""]
 
-    lines += ["## Summary over all scenarios", ""]
+    lines += ["## Certified results over all scenarios", ""]
     for setting in dict.fromkeys(frame["setting"]):
         sub = frame[frame["setting"] == setting]
         table = backend_summary(sub)
         if not table.empty:
-            lines += [f"**{setting}**: per backend over every scenario and problem.", "",
-                      markdown_table(table), ""]
+            lines += [f"**{setting}**: per backend over every scenario and problem "
+                      "(success = share of poses certified; see Settings).", "",
+                      markdown_table(table.reset_index(level="setting", drop=True)), ""]
     for name, caption in figures.items():
         if not name.startswith("traces_"):
             lines += [f"![{caption}]({name})", "", f"*{caption}*", ""]
@@ -412,7 +415,7 @@ def _scenario_section(rows: pd.DataFrame, scenario: str, figures: dict[str, str]
     base = rows[rows["setting"] == BASE_SETTING]
     order = [b for b in _backend_order(base)]
     for value, caption, digits in (
-        ("success_rate", "Success rate (fraction of poses solved to optimality); non-ok cells "
+        ("success_rate", "Success rate (fraction of poses certified optimal); non-ok cells "
          "show their status", 3),
         ("time_ratio", "Time ratio: median time per pose over the best backend of the problem",
          3),
@@ -424,8 +427,8 @@ def _scenario_section(rows: pd.DataFrame, scenario: str, figures: dict[str, str]
                   markdown_table(table[[b for b in order if b in table.columns]].T), ""]
     summary = backend_summary(rows)
     if not summary.empty:
-        lines += ["Per backend over this scenario's problems and all settings "
-                  "(success, time, accuracy):", "", markdown_table(summary), ""]
+        lines += ["Per backend and setting over this scenario's problems (certified "
+                  "success, time, accuracy):", "", markdown_table(summary), ""]
     settings = with_time_ratio(rows[rows["status"] == "ok"])
     if settings["setting"].nunique() > 1:
         effect = settings.pivot_table(index="backend", columns="setting",
@@ -479,6 +482,6 @@ def write_report(directory: str | os.PathLike[str] = RESULTS_DIR) -> Path:
                 figures[name] = f"Tensions along {scenario}, one panel per problem."
     path = out / REPORT_FILE
     tmp = path.with_suffix(".md.tmp")
-    tmp.write_text(build_markdown(frame, figures))
+    tmp.write_text(build_markdown(frame, figures, store.runs(), store.reference()))
     os.replace(tmp, path)
     return path

@@ -34,6 +34,7 @@ __all__ = [
     "TIMING_COLUMNS",
     "TRACE_BACKENDS",
     "CellResult",
+    "Reference",
     "References",
     "base_row",
     "keeps_trace",
@@ -58,13 +59,28 @@ TRACE_BACKENDS = (*REFERENCE_BACKENDS, "qpsolvers:clarabel")
 JUMP_FRACTION = 0.1
 #: Default time limit of one cell (s).
 TIME_LIMIT = 10.0
-#: Columns that hold measured times (they differ from run to run); all others are
-#: reproducible, whichever executor ran the cell.
+#: Columns that differ from run to run: measured times, and the run that stored the row
+#: and when (stamped by :func:`benchmarks.harness.run`); all others are reproducible,
+#: whichever executor ran the cell.
 TIMING_COLUMNS = ("setup_us_median", "setup_us_p95", "solve_us_median", "solve_us_p95",
-                  "time_us_median", "time_us_p95", "wall_time_s")
+                  "time_us_median", "time_us_p95", "wall_time_s", "certified_us", "run",
+                  "measured_at")
 
-#: Cache of reference objectives (N,) by (scenario, problem) name; None: no reference.
-References = dict[tuple[str, str], NDArray | None]
+
+
+@dataclass(frozen=True)
+class Reference:
+    """The exact optimum of a cell's poses: objective (N,) and tensions (N, m) (N), NaN
+    where the reference backend did not certify the pose; ``slack`` is its own accuracy
+    (0 for the closed form, the high target for an iterative reference)."""
+
+    objective: NDArray
+    tensions: NDArray
+    slack: float = 0.0
+
+
+#: Cache of references by (scenario, problem) name; None: no reference.
+References = dict[tuple[str, str], Reference | None]
 
 
 @dataclass
@@ -144,8 +160,8 @@ def run_cell(cell: Cell, references: References, time_limit: float = TIME_LIMIT)
 
 
 def reference_solution(scenario: Scenario, problem: ProblemSpec,
-                       cache: References) -> NDArray | None:
-    """Reference objective per pose, shape (N,), or None: closed form, else CLARABEL (high).
+                       cache: References) -> Reference | None:
+    """The exact optimum per pose, or None: closed form, else CLARABEL at high accuracy.
 
     Cached in ``cache`` under (scenario, problem).
     """
@@ -161,7 +177,9 @@ def reference_solution(scenario: Scenario, problem: ProblemSpec,
                     sol = problem.solve(scenario.robot, scenario.poses, backend, **options)
             except Exception:
                 continue
-            cache[key] = np.where(sol.success, sol.objective, np.nan)
+            cache[key] = Reference(np.where(sol.success, sol.objective, np.nan),
+                                   np.where(sol.success[:, None], sol.tensions, np.nan),
+                                   0.0 if backend == "closed_form" else sol.accuracy)
             break
     return cache[key]
 
@@ -190,11 +208,13 @@ def _solve_chunked(cell: Cell, time_limit: float) -> tuple[dict[str, Any], dict[
         "tensions": np.full((N, m), np.nan), "success": np.zeros(N, dtype=bool),
         "unique": np.ones(N, dtype=bool), "objective": np.full(N, np.nan),
         "residual": np.full(N, np.nan), "bound_violation": np.full(N, np.nan),
-        "iterations": np.full(N, np.nan),
+        "iterations": np.full(N, np.nan), "primal_residual": np.full(N, np.nan),
+        "dual_residual": np.full(N, np.nan), "duality_gap": np.full(N, np.nan),
     }
     times: dict[str, list[float]] = {"setup": [], "solve": [], "sizes": []}
     info: dict[str, Any] = {"solver": "", "solver_version": "", "timed_out": False,
-                            "iterations_reported": True, "statuses": {}}
+                            "iterations_reported": True, "statuses": {}, "accuracy": np.nan,
+                            "notes": set()}
     previous: NDArray | None = None
     # One backend instance for all chunks (joint smoothing takes the name).
     backend = cell.backend if pr.joint else tension_opt.get_backend(cell.backend)
@@ -222,10 +242,14 @@ def _record(sol: tension_opt.TensionSolution, idx: NDArray, out: dict[str, NDArr
             info: dict[str, Any], times: dict[str, list[float]]) -> None:
     """Copy one chunk's solution into the cell's arrays and counters."""
     info["solver"], info["solver_version"] = sol.solver, sol.solver_version
+    info["accuracy"] = sol.accuracy
+    if sol.extras.get("accuracy"):
+        info["notes"].add(str(sol.extras["accuracy"]))
     times["setup"].append(sol.setup_time)
     times["solve"].append(sol.solve_time)
     times["sizes"].append(len(idx))
-    for name in ("tensions", "success", "unique", "objective", "residual", "bound_violation"):
+    for name in ("tensions", "success", "unique", "objective", "residual", "bound_violation",
+                 "primal_residual", "dual_residual", "duality_gap"):
         out[name][idx] = getattr(sol, name)
     if sol.iterations is None:
         info["iterations_reported"] = False
@@ -242,7 +266,7 @@ def _nanstat(values: NDArray, fn: Any) -> float:
 
 
 def _measure(cell: Cell, info: dict[str, Any], out: dict[str, NDArray],
-             reference: NDArray | None) -> dict[str, Any]:
+             reference: Reference | None) -> dict[str, Any]:
     """Metric columns of a solved cell."""
     sc = cell.scenario
     N = sc.N
@@ -258,13 +282,17 @@ def _measure(cell: Cell, info: dict[str, Any], out: dict[str, NDArray],
         "bound_violation_max": _nanstat(np.where(ok, out["bound_violation"], np.nan), np.max),
         "iterations_mean": float("nan"), "iterations_max": float("nan"),
     }
+    row.update(_certificate_columns(cell, info, out, reference))
     if reference is not None:
-        gap = metrics.relative_gap(np.where(ok, out["objective"], np.nan), reference)
+        gap = metrics.relative_gap(np.where(ok, out["objective"], np.nan), reference.objective)
         row["objective_gap_max"] = _nanstat(gap, np.max)
     if info["iterations_reported"]:
         row["iterations_mean"] = _nanstat(out["iterations"], np.mean)
         row["iterations_max"] = _nanstat(out["iterations"], np.max)
     row.update(_timing(info))
+    solved = int(ok.sum())
+    row["certified_us"] = (1e6 * (info["setup"].sum() + info["solve"].sum()) / solved
+                           if solved else float("nan"))
     if sc.trajectory:
         threshold = JUMP_FRACTION * sc.robot.weight
         row.update(metrics.smoothness(out["tensions"], threshold))
@@ -275,6 +303,37 @@ def _measure(cell: Cell, info: dict[str, Any], out: dict[str, NDArray],
     if info["timed_out"]:
         row["status"] = "time_limit"
         row["message"] = f"stopped after {int(info['sizes'].sum())} of {N} poses"
+    elif info["notes"]:
+        row["message"] = short_message(RuntimeError("; ".join(sorted(info["notes"]))))
+    return row
+
+
+def _certificate_columns(cell: Cell, info: dict[str, Any], out: dict[str, NDArray],
+                         reference: Reference | None) -> dict[str, Any]:
+    """The certificate's measures over the poses with an answer (largest and shifted
+    geometric mean), and the answers labelled optimal against the exact optimum: their
+    largest objective excess and how many exceed the target (wrong "optimal")."""
+    answered = np.isfinite(out["tensions"]).all(axis=1)
+    row: dict[str, Any] = {"accuracy_target": info["accuracy"]}
+    for name in ("primal_residual", "dual_residual", "duality_gap"):
+        values = out[name][answered & np.isfinite(out[name])]
+        row[f"{name}_max"] = float(values.max()) if values.size else float("nan")
+        row[f"{name}_sgm"] = (metrics.shifted_geometric_mean(values, metrics.RESIDUAL_SHIFT)
+                              if values.size else float("nan"))
+    row["objective_excess_max"] = float("nan")
+    row["wrong_optimal"] = 0
+    ok = out["success"]
+    if reference is None or cell.problem.sequential or not ok.any():
+        return row
+    compared = ok & np.isfinite(reference.tensions).all(axis=1)
+    if not compared.any():
+        return row
+    form = cell.problem.build(cell.scenario.robot).standard_form(
+        cell.scenario.robot, cell.scenario.poses[compared])
+    excess = metrics.objective_excess(form, out["tensions"][compared],
+                                      reference.tensions[compared])
+    row["objective_excess_max"] = float(np.nanmax(excess))
+    row["wrong_optimal"] = int((excess > info["accuracy"] + reference.slack).sum())
     return row
 
 

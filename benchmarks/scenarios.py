@@ -9,7 +9,10 @@ over poses by :func:`tension_opt.distribute` or, for joint smoothing,
 
 Random sets are seeded draws of :func:`tension_opt.sampling.random_feasible_poses`
 (kept where the exact ``closed_form`` backend finds feasible tensions), so every
-scenario is the same on every machine.
+scenario is the same on every machine. Besides the study's robot and CoGiRo, seeded
+random suspended robots (:mod:`benchmarks.random_robots`: 3 DOF with 6 and 7 cables, one
+of them symmetric, and 6 DOF with 7 cables) widen the test set, with poses at the edge
+of their workspaces where the optimum is nearly degenerate.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 import tension_opt
+from benchmarks.random_robots import random_robot, random_robot_poses
 from tension_opt import CableRobot, TensionProblem, TensionSolution, presets
 from tension_opt.backends import Backend
 from tension_opt.sampling import feasible_mask, random_feasible_poses
@@ -181,6 +185,23 @@ def feasible_only(make: Callable[[CableRobot], NDArray]) -> Callable[[CableRobot
     return poses
 
 
+#: Poses of each random-robot scenario (two fifths of them at the workspace's edge).
+RANDOM_ROBOT_POSES = 40
+
+
+def _random(name: str, seed: int, m: int, kind: str, symmetric: bool = False) -> Scenario:
+    """A scenario of one seeded random suspended robot (:mod:`benchmarks.random_robots`)."""
+    dof = 3 if kind == "point3" else 6
+    shape = f"{'symmetric ' if symmetric else ''}{dof}-DOF, {m} cables"
+    return Scenario(
+        name, f"a seeded random suspended robot ({shape}, seed {seed}): "
+        f"{RANDOM_ROBOT_POSES} feasible poses, two fifths at the workspace's edge"
+        f"{' and its centre' if symmetric else ''}",
+        lambda: random_robot(seed, m, kind, symmetric),
+        lambda robot: random_robot_poses(robot, RANDOM_ROBOT_POSES, seed,
+                                         symmetric=symmetric))
+
+
 SCENARIOS: dict[str, Scenario] = {
     s.name: s
     for s in (
@@ -205,6 +226,9 @@ SCENARIOS: dict[str, Scenario] = {
         Scenario("thesis_long",
                  "throughput: 10^4-pose Lissajous path over the pond (about 2 cm steps)",
                  presets.algae_harvester, long_pond_path, trajectory=True, sag=True, large=True),
+        _random("random_point3_m6", 2000, 6, "point3"),
+        _random("random_point3_m7_symmetric", 3000, 7, "point3", symmetric=True),
+        _random("random_spatial6_m7", 5000, 7, "spatial6"),
     )
 }
 

@@ -7,8 +7,16 @@ temporary file and renamed over the old one.
 
 - Table ``results``: one row per cell, ``UNIQUE (scenario, problem, backend, setting)``
   (the scenario names a seeded pose set, the same on every machine); columns
-  ``machine`` (who measured it), ``row`` (the whole row as JSON, column order kept) and
-  ``trace`` (tensions (N, m) as float32 ``.npy`` bytes, or NULL).
+  ``machine`` (who measured it), ``run`` (the run that measured it), ``row`` (the whole
+  row as JSON, column order kept) and ``trace`` (tensions (N, m) as float32 ``.npy``
+  bytes, or NULL).
+- Table ``runs``: the runs made with this database: ``id`` (a random hex id, stamped on
+  their rows with the time each was measured), ``invocation`` (a key of the cells and
+  settings asked for, :func:`invocation_key`), ``machine``, ``started``, ``finished``
+  (NULL while it runs, or if it was interrupted). A run resumes only an *interrupted*
+  run of the *same invocation* on the *same machine* (:meth:`ResultsStore.start_run`):
+  rows that came with the clone, or that a finished run left, are measured again, so a
+  plain run always measures the machine it runs on.
 - Writes: one ``BEGIN IMMEDIATE`` transaction per chunk of rows, an upsert on the key
   (a row measured again replaces the old one in place). Concurrent runs wait for each
   other's transaction (busy timeout :data:`BUSY_TIMEOUT`); a process killed at any
@@ -25,6 +33,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import datetime
 import hashlib
 import io
 import json
@@ -33,7 +42,8 @@ import platform
 import sqlite3
 import sys
 import threading
-from collections.abc import Callable, Collection, Iterable, Iterator
+import uuid
+from collections.abc import Collection, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +52,13 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from benchmarks.plan import KEY
+from benchmarks.store_files import (
+    check_csv,
+    digest,
+    parse_journal,
+    replace_file,
+    same_traces,
+)
 
 __all__ = [
     "BUSY_TIMEOUT",
@@ -55,7 +72,9 @@ __all__ = [
     "Key",
     "ResultsStore",
     "StoreError",
+    "invocation_key",
     "machine_label",
+    "utc_now",
 ]
 
 RESULTS_DIR = Path(__file__).resolve().parent / "results"
@@ -73,7 +92,7 @@ Key = tuple[str, ...]
 #: One cell's row and its trace (N, m) (N) or None.
 Entry = tuple[dict[str, Any], NDArray | None]
 
-_SCHEMA_VERSION = 1
+_SCHEMA_VERSION = 2
 _COLUMNS = ", ".join(KEY)
 _SCHEMA = (
     f"""CREATE TABLE IF NOT EXISTS results (
@@ -81,15 +100,24 @@ _SCHEMA = (
         machine TEXT NOT NULL,
         row TEXT NOT NULL,
         trace BLOB,
+        run TEXT,
         UNIQUE ({_COLUMNS}))""",
     "CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT)",
+    """CREATE TABLE IF NOT EXISTS runs (id TEXT PRIMARY KEY, invocation TEXT NOT NULL,
+        machine TEXT NOT NULL, started TEXT NOT NULL, finished TEXT, cells INTEGER)""",
+    f"""CREATE TABLE IF NOT EXISTS reference (
+        {", ".join(f"{k} TEXT NOT NULL" for k in KEY)}, row TEXT NOT NULL,
+        UNIQUE ({_COLUMNS}))""",
 )
 # A row measured again replaces the old one in place; a row without a trace keeps the
 # trace stored before.
-_UPSERT = (f"INSERT INTO results ({_COLUMNS}, machine, row, trace) "
-           f"VALUES ({', '.join('?' * (len(KEY) + 3))}) ON CONFLICT ({_COLUMNS}) DO UPDATE "
-           "SET machine = excluded.machine, row = excluded.row, "
+_UPSERT = (f"INSERT INTO results ({_COLUMNS}, machine, run, row, trace) "
+           f"VALUES ({', '.join('?' * (len(KEY) + 4))}) ON CONFLICT ({_COLUMNS}) DO UPDATE "
+           "SET machine = excluded.machine, run = excluded.run, row = excluded.row, "
            "trace = COALESCE(excluded.trace, results.trace)")
+_KEEP_REFERENCE = (f"INSERT INTO reference ({_COLUMNS}, row) VALUES "
+                   f"({', '.join('?' * (len(KEY) + 1))}) ON CONFLICT ({_COLUMNS}) DO UPDATE "
+                   "SET row = excluded.row")
 _SET_TRACE = f"UPDATE results SET trace = ? WHERE ({_COLUMNS}) = ({', '.join('?' * len(KEY))})"
 _SET_META = ("INSERT INTO meta (name, value) VALUES (?, ?) "
              "ON CONFLICT (name) DO UPDATE SET value = excluded.value")
@@ -104,9 +132,24 @@ class StoreError(RuntimeError):
 
 
 def machine_label() -> str:
-    """Host, CPU, core count and Python of this machine: rows are reused only on it."""
+    """Host, CPU, core count and Python of this machine (a label of where rows were
+    measured; two virtual machines may share it, so rows are resumed by run, not by it)."""
     return (f"{platform.node()} / {platform.processor() or platform.machine()} / "
             f"{os.cpu_count()} cores / Python {sys.version.split()[0]}")
+
+
+def utc_now() -> str:
+    """The time now, UTC, to the second, ISO 8601 (e.g. ``2026-01-02T03:04:05Z``)."""
+    return datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def invocation_key(keys: Sequence[tuple[str, ...]], **settings: object) -> str:
+    """A key of one invocation: its cell keys (in any order) and settings such as the
+    time limit. Two runs with the same key are the same invocation (one may resume
+    the other)."""
+    text = json.dumps([sorted(map(list, keys)), sorted((k, repr(v)) for k, v in
+                                                       settings.items())])
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 class ResultsStore:
@@ -152,20 +195,78 @@ class ResultsStore:
                 "ORDER BY rowid").fetchall()
         return {tuple(item[:-1]): self._decode_trace(item[-1]) for item in found}
 
-    def done(self, machines: Collection[str] | None = None) -> set[Key]:
-        """Keys of the rows stored by this machine (rows measured elsewhere are re-run).
+    def done(self, machines: Collection[str] | None = None, run: str | None = None
+             ) -> set[Key]:
+        """Keys of rows that a new run need not measure again.
 
         Parameters
         ----------
         machines : collection of str, optional
-            Machine labels (see :func:`machine_label`) whose rows count as done, e.g. the
+            Machine labels (see :func:`machine_label`) whose rows count, e.g. the
             workers of a cluster. Default: this machine only.
+        run : str, optional
+            A run being resumed: only its own rows count (what :func:`~benchmarks.harness.run`
+            uses). Without it, the rows measured by runs of this database on
+            ``machines``: rows imported from a CSV (a fresh clone's) never count.
         """
         here = {machine_label()} if machines is None else set(machines)
         with self._reading() as conn:
-            found = [] if conn is None else conn.execute(
-                f"SELECT {_COLUMNS}, machine FROM results").fetchall()
+            if conn is None:
+                return set()
+            if run is not None:
+                found = conn.execute(f"SELECT {_COLUMNS} FROM results WHERE run = ?",
+                                     (run,)).fetchall()
+                return {tuple(item) for item in found}
+            found = conn.execute(f"SELECT {_COLUMNS}, machine FROM results WHERE run IN "
+                                 "(SELECT id FROM runs)").fetchall()
         return {tuple(item[:-1]) for item in found if item[-1] in here}
+
+    # runs
+    def start_run(self, invocation: str, cells: int, resume: bool = True) -> tuple[str, bool]:
+        """Begin a run of ``invocation`` (:func:`invocation_key`) over ``cells`` cells.
+
+        Returns
+        -------
+        run : str
+            Its id: that of the last interrupted run of the same invocation on this
+            machine when ``resume`` (it goes on), else a new one.
+        resumed : bool
+        """
+        with self._writing() as conn:
+            if resume:
+                found = conn.execute(
+                    "SELECT id FROM runs WHERE invocation = ? AND machine = ? AND finished IS "
+                    "NULL ORDER BY started DESC, rowid DESC LIMIT 1",
+                    (invocation, machine_label())).fetchone()
+                if found is not None:
+                    return str(found[0]), True
+            run = uuid.uuid4().hex[:12]
+            conn.execute("INSERT INTO runs (id, invocation, machine, started, cells) "
+                         "VALUES (?, ?, ?, ?, ?)",
+                         (run, invocation, machine_label(), utc_now(), int(cells)))
+        return run, False
+
+    def finish_run(self, run: str) -> None:
+        """Mark ``run`` finished: a later run of its invocation starts afresh."""
+        with self._writing() as conn:
+            conn.execute("UPDATE runs SET finished = ? WHERE id = ?", (utc_now(), run))
+
+    def runs(self) -> pd.DataFrame:
+        """The runs made with this database: id, invocation, machine, started, finished,
+        cells (in order)."""
+        columns = ["id", "invocation", "machine", "started", "finished", "cells"]
+        with self._reading() as conn:
+            found = [] if conn is None else conn.execute(
+                f"SELECT {', '.join(columns)} FROM runs ORDER BY rowid").fetchall()
+        return pd.DataFrame(found, columns=columns)
+
+    def reference(self) -> pd.DataFrame:
+        """The rows imported from a results CSV (measured elsewhere, or before this
+        database), as imported, even after this machine measured the same cells."""
+        with self._reading() as conn:
+            texts = [] if conn is None else conn.execute(
+                "SELECT row FROM reference ORDER BY rowid").fetchall()
+        return _frame({_key(row): row for row in (self._decode_row(t) for (t,) in texts)})
 
     # writing
     def append(self, row: dict[str, Any], trace: NDArray | None = None) -> None:
@@ -201,14 +302,14 @@ class ResultsStore:
             frame = _frame(rows)
             if rows:
                 data = frame.to_csv(index=False, float_format="%.6g").encode()
-                conn.execute(_SET_META, (RESULTS_FILE, _replace(self.results_path, data)))
+                conn.execute(_SET_META, (RESULTS_FILE, replace_file(self.results_path, data)))
             if traces:
                 buffer = io.BytesIO()
                 # Any: a dict unpacked into **kwds would otherwise have to fit allow_pickle.
                 arrays: dict[str, Any] = {"|".join(k): v for k, v in traces.items()}
                 np.savez_compressed(buffer, **arrays)
-                digest = _replace(self.traces_path, buffer.getvalue(),
-                                  lambda old: _same_traces(old, arrays))
+                digest = replace_file(self.traces_path, buffer.getvalue(),
+                                  lambda old: same_traces(old, arrays))
                 conn.execute(_SET_META, (TRACES_FILE, digest))
         return frame
 
@@ -297,7 +398,7 @@ class ResultsStore:
         if version < _SCHEMA_VERSION:
             return True
         seen = dict(conn.execute("SELECT name, value FROM meta").fetchall())
-        return any(path.exists() and _digest(path.read_bytes()) != seen.get(path.name)
+        return any(path.exists() and digest(path.read_bytes()) != seen.get(path.name)
                    for path in (self.results_path, self.traces_path, self.journal_path))
 
     def _import(self, conn: sqlite3.Connection) -> bool:
@@ -305,27 +406,33 @@ class ResultsStore:
 
         Returns whether a journal was imported.
         """
-        fresh = conn.execute("PRAGMA user_version").fetchone()[0] < _SCHEMA_VERSION
+        version = conn.execute("PRAGMA user_version").fetchone()[0]
+        fresh = version < _SCHEMA_VERSION
         if fresh:
             for statement in _SCHEMA:
                 conn.execute(statement)
+            columns = {c[1] for c in conn.execute("PRAGMA table_info(results)").fetchall()}
+            if "run" not in columns:  # a database of schema 1
+                conn.execute("ALTER TABLE results ADD COLUMN run TEXT")
             conn.execute(f"PRAGMA user_version = {_SCHEMA_VERSION}")
         seen = dict(conn.execute("SELECT name, value FROM meta").fetchall())
         journal = False
         for path in (self.results_path, self.traces_path, self.journal_path):
             data = path.read_bytes() if path.exists() else None
-            if data is None or _digest(data) == seen.get(path.name):
+            if data is None or digest(data) == seen.get(path.name):
                 continue
             if path == self.results_path:
                 rows = self._parse_csv(data, fresh)
                 conn.executemany(_UPSERT, [_params(row, None) for row in rows])
+                conn.executemany(_KEEP_REFERENCE, [
+                    (*_key(row), json.dumps(row, default=_json_default)) for row in rows])
             elif path == self.traces_path:
                 traces = self._parse_traces(data, fresh)
                 conn.executemany(_SET_TRACE, [(_encode_trace(v), *k) for k, v in traces.items()])
             else:
-                conn.executemany(_UPSERT, [_params(*e) for e in _parse_journal(data)])
+                conn.executemany(_UPSERT, [_params(*e) for e in parse_journal(data)])
                 journal = True
-            conn.execute(_SET_META, (path.name, _digest(data)))
+            conn.execute(_SET_META, (path.name, digest(data)))
         return journal
 
     def _read_all(self, conn: sqlite3.Connection,
@@ -389,7 +496,7 @@ class ResultsStore:
         """Rows of a results CSV, checked whole: a cut or garbled file raises StoreError."""
         try:
             text = data.decode("utf-8")
-            _check_csv(text)
+            check_csv(text)
             frame = pd.read_csv(io.StringIO(text), keep_default_na=False,
                                 na_values=["", "nan", "NaN"])
         except (UnicodeDecodeError, csv.Error, ValueError) as exc:
@@ -402,44 +509,6 @@ class ResultsStore:
                 return {tuple(k.split("|")): found[k] for k in found.files}
         except Exception as exc:  # zipfile, zlib and numpy each raise their own errors
             raise self._file_error(self.traces_path, "traces archive", exc, fresh) from exc
-
-
-def _check_csv(text: str) -> None:
-    """Raise ValueError unless ``text`` is a whole table with the key columns in each row."""
-    if "\x00" in text:
-        raise ValueError("binary data")
-    if not text:
-        raise ValueError("the file is empty")
-    if not text.endswith("\n"):
-        raise ValueError("the last line is cut: the file does not end with a line end")
-    reader = csv.reader(io.StringIO(text), strict=True)
-    header = next(reader, [])
-    missing = [k for k in KEY if k not in header]
-    if missing:
-        raise ValueError(f"no column {missing[0]!r} in the header")
-    places = [header.index(k) for k in KEY]
-    for record in reader:
-        if not record:  # a blank line, skipped by pandas too
-            continue
-        if len(record) != len(header):
-            raise ValueError(f"line {reader.line_num} has {len(record)} fields, "
-                             f"the header {len(header)}")
-        if not all(record[i] for i in places):
-            raise ValueError(f"line {reader.line_num} lacks a key field {list(KEY)}")
-
-
-def _parse_journal(data: bytes) -> list[Entry]:
-    """Entries of a journal of earlier versions; a torn last line is ignored."""
-    entries: list[Entry] = []
-    for line in data.decode("utf-8", errors="replace").splitlines():
-        try:
-            entry = json.loads(line)
-            _key(entry["row"])
-        except (ValueError, TypeError, KeyError):  # torn write of an interrupted run
-            continue
-        trace = entry.get("trace")
-        entries.append((entry["row"], None if trace is None else np.asarray(trace, float)))
-    return entries
 
 
 def _connect(path: Path) -> sqlite3.Connection:
@@ -467,48 +536,15 @@ def _lock_name(path: Path) -> tuple[str, int]:
     return os.path.realpath(path), threading.get_ident()
 
 
-def _replace(path: Path, data: bytes,
-             unchanged: Callable[[bytes], bool] | None = None) -> str:
-    """Write ``data`` to ``path`` through a temporary file and a rename; return its digest.
-
-    A file already holding ``data`` (or of which ``unchanged`` says so) is left as it is.
-    """
-    old = path.read_bytes() if path.exists() else None
-    if old is not None and (old == data or (unchanged is not None and unchanged(old))):
-        return _digest(old)
-    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return _digest(data)
-
-
-def _same_traces(data: bytes, arrays: dict[str, NDArray]) -> bool:
-    """Whether an ``.npz`` archive holds exactly ``arrays`` (its zip dates may differ)."""
-    try:
-        with np.load(io.BytesIO(data), allow_pickle=False) as found:
-            return set(found.files) == set(arrays) and all(
-                np.array_equal(found[k], v, equal_nan=True) for k, v in arrays.items())
-    except Exception:  # not an archive: it is replaced
-        return False
-
-
-def _digest(data: bytes) -> str:
-    return hashlib.sha256(data).hexdigest()
-
-
 def _key(row: dict[str, Any]) -> Key:
     return tuple(str(row[k]) for k in KEY)
 
 
 def _params(row: dict[str, Any], trace: NDArray | None) -> tuple[Any, ...]:
     """The upsert's parameters of one row."""
+    run = row.get("run")
     return (*_key(row), str(row.get("machine", "")),
+            None if run is None or (isinstance(run, float) and np.isnan(run)) else str(run),
             json.dumps(row, default=_json_default), _encode_trace(trace))
 
 

@@ -394,6 +394,8 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
             extras.setdefault("fallback", {}).setdefault(name, []).append(k)
         if raw.extras.get("errors"):
             extras.setdefault("errors", {})[k] = next(iter(raw.extras["errors"].values()))
+        if "accuracy_target" in raw.extras:  # the whole sequence is judged at the target
+            extras["accuracy_target"] = raw.extras["accuracy_target"]
         unique[k] = True if raw.unique is None else raw.unique[0]
         if iterations is not None and raw.iterations is not None:
             iterations[k] = raw.iterations[0]

@@ -12,9 +12,30 @@ with a diagonal Hessian ``q >= 0``. Smoothing for sequences adds
 ``smoothing * ||T - T_prev||^2`` to the objective; a rate limit
 ``|T - T_prev| <= rate_limit`` tightens the bounds.
 
-Scaling: the form stays in newtons; backends that iterate solve it in units of a
-typical tension per pose (:meth:`StandardForm.scale`) so that their tolerances are
-relative. A form also measures any tensions against itself (equilibrium residual,
+Scaling. The form stays in newtons; every generic backend solves it nondimensionalised,
+pose by pose (:meth:`StandardForm.scaling`, the one definition; the closed form is
+exact and needs none):
+
+- tensions in units of a reference tension ``s`` of the pose (the tension that holds
+  the wrench, ``||b||`` over the longest column of ``A``, or the largest lower bound if
+  larger; :meth:`StandardForm.scale`), and at least :data:`UB_SHARE` of the largest
+  finite upper bound (an unloaded pose keeps its box of order 1e3 wide): ``T = s x``;
+- each equilibrium row divided by its norm, so that forces and moments weigh alike:
+  ``D A x = D b / s`` with ``D = diag(1 / ||A_i||)`` (a row shorter than
+  :data:`ROW_FLOOR` of the longest, such as a moment the cables cannot make that is
+  zero but for rounding, is scaled up by ``1 / ROW_FLOOR`` at most);
+- the objective divided by its own size, ``s^2 max_i q_i`` for a QP and
+  ``s max(max_i |c_i|, max_i v_i)`` for an LP, so that the largest Hessian entry or
+  cost is 1 and the optimum is of order one.
+
+Dividing a row or the objective by a positive number leaves the minimiser unchanged,
+and every scale is a property of the pose alone (a subset of poses scales as in the
+whole batch). Solver tolerances, the accuracy target and the certificate of a solution
+(primal residual, dual residual, duality gap: :mod:`tension_opt.certificate`) are all
+measured in these units, so ``1e-7`` means the same on every robot and every solver.
+The scaled, lifted matrices are built by :func:`tension_opt.scaled.scaled_batch`.
+
+A form also measures any tensions against itself in newtons (equilibrium residual,
 bound violation, objective), which is how a solution's diagnostics are computed.
 """
 
@@ -33,7 +54,15 @@ from tension_opt.nullspace import typical_tension
 from tension_opt.objectives import Objective, get_objective
 from tension_opt.robot import CableRobot
 
-__all__ = ["Objective", "StandardForm", "TensionProblem", "as_problem"]
+__all__ = ["ROW_FLOOR", "UB_SHARE", "Objective", "Scaling", "StandardForm", "TensionProblem",
+           "as_problem"]
+
+#: Equilibrium rows are scaled to unit length, but by at most ``1 / ROW_FLOOR`` times the
+#: longest row's factor (see the module docstring).
+ROW_FLOOR = 1e-3
+#: The reference tension is at least this share of the largest finite upper bound (see
+#: :meth:`StandardForm.scaling`).
+UB_SHARE = 1e-3
 
 
 @dataclass(frozen=True, eq=False)
@@ -442,6 +471,71 @@ class StandardForm:
         """Typical tension per pose (N), used to normalise the solvers' units, shape (N,)
         (:func:`tension_opt.nullspace.typical_tension`)."""
         return typical_tension(self.A, self.b, self.lb)
+
+    def scaling(self) -> Scaling:
+        """How each pose is nondimensionalised for the solvers (see the module docstring)."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            s = np.array(self.scale(), dtype=float)
+        bad = ~np.isfinite(s)
+        if bad.any():  # a wrench near 1e300 N: a finite stand-in keeps the scaled data finite
+            lb = np.where(np.isfinite(self.lb[bad]), np.abs(self.lb[bad]), 0.0)
+            s[bad] = np.maximum(np.maximum(np.abs(self.b[bad]).max(axis=1, initial=0.0),
+                                           lb.max(axis=1, initial=0.0)), 1e-12)
+        # A pose that needs little tension (no load, a small lower bound) keeps its box
+        # at most 1e3 reference tensions wide: interior-point solvers stall on wider ones.
+        ub = np.where(np.isfinite(self.ub), np.abs(self.ub), 0.0).max(axis=1, initial=0.0)
+        s = np.maximum(s, UB_SHARE * ub)
+        with np.errstate(over="ignore", invalid="ignore"):
+            norms = np.linalg.norm(self.A, axis=2)
+            # A row far shorter than the others (a moment the cables can hardly make, or
+            # one that is zero but for rounding) is scaled up by 1e3 at most: blown up to
+            # unit length, its rounding would become an equation.
+            floor = ROW_FLOOR * norms.max(axis=1, initial=0.0)[:, None]
+            size = np.maximum(norms, floor)
+            rows = np.where((size > 0) & np.isfinite(size),
+                            1.0 / np.where(size > 0, size, 1.0), 1.0)
+        quadratic = self.q.max(axis=1, initial=0.0)
+        linear = np.abs(self.c).max(axis=1, initial=0.0)
+        vmax = 1.0
+        if self.minmax is not None:
+            vmax = float(np.abs(self.minmax).max(initial=0.0)) or 1.0
+            linear = np.maximum(linear, vmax)
+        square = quadratic > 0
+        top = np.where(square, quadratic, np.where(linear > 0, linear, 1.0))
+        return Scaling(tension=s, rows=rows, top=top, quadratic=square, vmax=vmax)
+
+
+@dataclass(frozen=True)
+class Scaling:
+    """Nondimensionalisation of a batch, pose by pose (:meth:`StandardForm.scaling`).
+
+    Attributes
+    ----------
+    tension : ndarray, shape (N,)
+        Reference tension ``s`` (N): ``T = s x``.
+    rows : ndarray, shape (N, n)
+        Factors ``1 / ||A_i||`` of the equilibrium rows (a row shorter than
+        :data:`ROW_FLOOR` of the longest is divided by that much only; 1 for a zero
+        matrix).
+    top : ndarray, shape (N,)
+        Largest Hessian entry (QP) or cost (LP, min-max weights included) of the form.
+    quadratic : ndarray of bool, shape (N,)
+        Whether the pose's objective has a quadratic term.
+    vmax : float
+        Largest min-max weight (1 without a min-max term).
+    """
+
+    tension: NDArray
+    rows: NDArray
+    top: NDArray
+    quadratic: NDArray
+    vmax: float
+
+    def objective_unit(self) -> NDArray:
+        """Size of the objective per pose, ``top s^2`` (QP) or ``top s`` (LP), in the
+        form's units: a scaled objective is the form's divided by it, shape (N,)."""
+        with np.errstate(over="ignore"):
+            return self.top * np.where(self.quadratic, self.tension**2, self.tension)
 
 
 def row_norms(x: NDArray) -> NDArray:

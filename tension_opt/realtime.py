@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.backends.base import Backend
 from tension_opt.backends.settings import check_options, solver_options
+from tension_opt.certificate import accuracy_target
 from tension_opt.checks import as_finite
 from tension_opt.distribute import distribute
 from tension_opt.errors import InvalidInputError
@@ -42,30 +43,6 @@ from tension_opt.robot import CableRobot
 from tension_opt.solution import FEASIBILITY_TOL, STATUS_DTYPE, Status
 
 __all__ = ["Distributor", "RealtimeResult"]
-
-#: Accuracy targets (relative, of the scaled problem) that the compiled paths certify.
-ACCURACY_TARGETS = {"default": 1e-7, "high": 1e-10}
-
-
-def accuracy_target(accuracy: object) -> float:
-    """The target of an ``accuracy`` option: ``"default"`` (or None) 1e-7, ``"high"``
-    1e-10, or a number between 1e-14 and 1e-2.
-
-    Raises
-    ------
-    InvalidInputError
-        For another name or a number out of range.
-    """
-    if accuracy is None:
-        return ACCURACY_TARGETS["default"]
-    if isinstance(accuracy, str) and accuracy in ACCURACY_TARGETS:
-        return ACCURACY_TARGETS[accuracy]
-    if (isinstance(accuracy, int | float) and not isinstance(accuracy, bool)
-            and 1e-14 <= float(accuracy) <= 1e-2):
-        return float(accuracy)
-    raise InvalidInputError(
-        f"accuracy must be one of {list(ACCURACY_TARGETS)} or a number between 1e-14 and "
-        f"1e-2, got {accuracy!r}")
 
 _STATUS = (Status.OPTIMAL, Status.INFEASIBLE, Status.UNBOUNDED, Status.INACCURATE,
            Status.SOLVER_ERROR)

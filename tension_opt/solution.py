@@ -1,4 +1,10 @@
-"""Result of a tension distribution: :class:`TensionSolution`.
+"""Result of a tension distribution: :class:`TensionSolution`, with its certificate.
+
+Every solution carries, per pose, the three measures of its certificate on the scaled
+problem (:mod:`tension_opt.certificate`): primal residual, dual residual and duality
+gap, and the accuracy target they are judged against. ``OPTIMAL`` means all three meet
+the target (and the tensions are finite, in equilibrium and within their bounds in
+newtons); a solver's "optimal" that misses it is ``INACCURATE``, its figures kept.
 
 :class:`~tension_opt.status.Status` and :func:`~tension_opt.status.status_array` are
 re-exported here.
@@ -13,6 +19,14 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from tension_opt.certificate import (
+    DEFAULT_TARGET,
+    Certificate,
+    Multipliers,
+    accuracy_target,
+    certify_form,
+    primal_residual_of,
+)
 from tension_opt.status import STATUS_DTYPE, Status, status_array
 
 __all__ = ["FEASIBILITY_TOL", "STATUS_DTYPE", "Status", "TensionSolution", "status_array"]
@@ -59,10 +73,21 @@ class TensionSolution:
         Backend-specific information.
     form : StandardForm, optional
         The problems solved, against which the diagnostics were measured.
+    primal_residual, dual_residual, duality_gap : ndarray, shape (N,)
+        The certificate's measures on the scaled problem (dimensionless; see
+        :mod:`tension_opt.certificate`); NaN where the pose has no solution (and the
+        last two for a solution not judged on optimality, such as a jointly smoothed
+        path).
+    accuracy : float
+        The target the measures are judged against.
+    multipliers : Multipliers, optional
+        The multipliers of the certificate (scaled units), the solver's where it gave
+        them.
 
     A solution is built by :meth:`from_form`, which measures the tensions against their
-    own problem form: a solver's "optimal" whose equilibrium or bounds miss
-    :data:`FEASIBILITY_TOL` of the typical tension becomes ``INACCURATE``.
+    own problem form: a solver's "optimal" whose certificate misses the target, or whose
+    equilibrium or bounds miss :data:`FEASIBILITY_TOL` of the typical tension in
+    newtons, becomes ``INACCURATE``.
     """
 
     tensions: NDArray
@@ -81,6 +106,17 @@ class TensionSolution:
     problem: Any = None
     extras: dict[str, Any] = field(default_factory=dict)
     form: StandardForm | None = field(default=None, repr=False)
+    primal_residual: NDArray | None = None
+    dual_residual: NDArray | None = None
+    duality_gap: NDArray | None = None
+    accuracy: float = DEFAULT_TARGET
+    multipliers: Multipliers | None = field(default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        # A solution put together without a certificate (e.g. from chunks) says so.
+        for name in ("primal_residual", "dual_residual", "duality_gap"):
+            if getattr(self, name) is None:
+                setattr(self, name, np.full(self.N, np.nan))
 
     @classmethod
     def from_form(
@@ -98,8 +134,11 @@ class TensionSolution:
         setup_time: float = 0.0,
         solve_time: float = 0.0,
         extras: dict[str, Any] | None = None,
+        multipliers: Multipliers | None = None,
+        accuracy: object = None,
+        optimality: bool = True,
     ) -> TensionSolution:
-        """A solution of ``form`` with its diagnostics measured against the form.
+        """A solution of ``form`` with its diagnostics and certificate measured against it.
 
         Parameters
         ----------
@@ -109,33 +148,43 @@ class TensionSolution:
             Tensions (N) as returned; set to NaN where the status is not a solution.
         status : array_like, shape (N,)
             :class:`Status` values; ``OPTIMAL`` is downgraded to ``INACCURATE`` where the
-            equilibrium or bounds miss :data:`FEASIBILITY_TOL` of the typical tension,
-            and ``OPTIMAL`` or ``INACCURATE`` to ``SOLVER_ERROR`` where a tension is not
-            finite: ``OPTIMAL`` always means finite tensions within the certificate.
+            certificate misses the accuracy target or the equilibrium or bounds miss
+            :data:`FEASIBILITY_TOL` of the typical tension, and ``OPTIMAL`` or
+            ``INACCURATE`` to ``SOLVER_ERROR`` where a tension is not finite:
+            ``OPTIMAL`` always means finite tensions within the certificate.
         backend, solver, solver_version : str
             Labels of what solved it.
         unique, iterations, infeasibility : ndarray, shape (N,), optional
         setup_time, solve_time : float
             Seconds.
         extras : dict, optional
+            Backend information; a backend's ``"multipliers"`` and ``"accuracy_target"``
+            entries are taken out of it as the two arguments below (when those are not
+            given).
+        multipliers : Multipliers, optional
+            The solver's multipliers of the scaled problem; estimated where missing.
+        accuracy : {"default", "high"} or float, optional
+            Target of the certificate (default: the backend's, else 1e-7).
+        optimality : bool
+            False for tensions that are not meant to be optimal pose by pose (a path
+            smoothed as a whole): only the primal residual is certified.
         """
-        T = np.array(tensions, dtype=float)
-        status = np.array(status, dtype=STATUS_DTYPE)
-        solved = (status == Status.OPTIMAL) | (status == Status.INACCURATE)
-        # A "solution" with a non-finite tension is no solution, whatever the solver said.
-        broken = solved & ~np.isfinite(T).all(axis=1)
-        status[broken] = Status.SOLVER_ERROR
-        solved &= ~broken
-        T[~solved] = np.nan
+        extras = dict(extras or {})
+        given = extras.pop("multipliers", None)
+        multipliers = multipliers if multipliers is not None else given
+        target = accuracy_target(accuracy if accuracy is not None
+                                 else extras.get("accuracy_target"))
+        T, status, solved = _solutions(tensions, status)
         with np.errstate(over="ignore", invalid="ignore"):
             residual = form.equilibrium_residual(T)
             violation = form.bound_violation(T)
             objective = form.objective_value(T)
         violation[~solved] = np.nan
-        tol = FEASIBILITY_TOL * form.tolerance_scale()
+        tol = max(FEASIBILITY_TOL, 10.0 * target) * form.tolerance_scale()
         # Written so that a NaN measure (an overflow) fails the certificate.
-        certified = (residual <= tol) & (violation <= tol)
-        status[solved & ~certified] = Status.INACCURATE
+        feasible = (residual <= tol) & (violation <= tol)
+        certificate, certified = _certificate(form, T, multipliers, target, optimality)
+        status[solved & ~(feasible & certified)] = Status.INACCURATE
         N = len(T)
         return cls(
             tensions=T, status=status,
@@ -144,9 +193,20 @@ class TensionSolution:
             iterations=iterations,
             infeasibility=np.full(N, np.nan) if infeasibility is None else infeasibility,
             setup_time=setup_time, solve_time=solve_time, backend=backend, solver=solver,
-            solver_version=solver_version, problem=form.problem, extras=extras or {},
-            form=form,
+            solver_version=solver_version, problem=form.problem, extras=extras,
+            form=form, primal_residual=certificate.primal_residual,
+            dual_residual=certificate.dual_residual, duality_gap=certificate.duality_gap,
+            accuracy=target, multipliers=certificate.multipliers,
         )
+
+    @property
+    def certified(self) -> NDArray:
+        """Poses whose certificate meets :attr:`accuracy`, shape (N,) (whatever the status
+        says; ``OPTIMAL`` implies it)."""
+        assert self.primal_residual is not None  # filled in by __post_init__
+        t = self.accuracy
+        return np.asarray((self.primal_residual <= t) & (self.dual_residual <= t)
+                          & (self.duality_gap <= t), dtype=bool)
 
     @property
     def N(self) -> int:
@@ -164,7 +224,9 @@ class TensionSolution:
         return (self.setup_time + self.solve_time) / max(self.N, 1)
 
     def to_frame(self) -> pd.DataFrame:
-        """Tidy table, one row per pose: status, tensions ``T1..Tm`` and diagnostics."""
+        """Tidy table, one row per pose: status, tensions ``T1..Tm``, diagnostics in newtons
+        and the certificate (``primal_residual``, ``dual_residual``, ``duality_gap``
+        on the scaled problem, and the ``accuracy`` target they are judged against)."""
         frame = pd.DataFrame(
             self.tensions, columns=[f"T{i + 1}" for i in range(self.tensions.shape[1])]
         )
@@ -179,6 +241,10 @@ class TensionSolution:
             else pd.array([None] * self.N, dtype="Int64")
         )
         frame["infeasibility"] = self.infeasibility
+        frame["primal_residual"] = self.primal_residual
+        frame["dual_residual"] = self.dual_residual
+        frame["duality_gap"] = self.duality_gap
+        frame["accuracy"] = self.accuracy
         frame["backend"] = self.backend
         return frame
 
@@ -189,3 +255,36 @@ class TensionSolution:
             f"status={counts}, non_unique={int((~self.unique).sum())}, "
             f"max_residual={np.nanmax(self.residual, initial=0.0):.3g})"
         )
+
+
+
+def _solutions(tensions: NDArray, status: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+    """Tensions (NaN where not a solution), statuses and the mask of solutions: a
+    "solution" with a non-finite tension is no solution, whatever the solver said."""
+    T = np.array(tensions, dtype=float)
+    status = np.array(status, dtype=STATUS_DTYPE)
+    solved = (status == Status.OPTIMAL) | (status == Status.INACCURATE)
+    broken = solved & ~np.isfinite(T).all(axis=1)
+    status[broken] = Status.SOLVER_ERROR
+    solved &= ~broken
+    T[~solved] = np.nan
+    return T, status, solved
+
+
+def _certificate(form: StandardForm, tensions: NDArray, multipliers: Multipliers | None,
+                 target: float, optimality: bool) -> tuple[Certificate, NDArray]:
+    """The certificate of ``tensions`` on ``form`` and the poses it certifies; with
+    ``optimality`` False only the primal residual is measured and judged (the dual
+    residual and gap are NaN)."""
+    if form.N == 0:
+        empty = np.zeros(0)
+        return Certificate(empty, empty, empty, target, Multipliers(
+            np.zeros((0, form.n)), np.zeros((0, 0)), np.zeros((0, form.m)))), empty > 0
+    if optimality:
+        certificate = certify_form(form, tensions, multipliers, target)
+        return certificate, certificate.certified
+    primal = primal_residual_of(form, tensions)
+    nan = np.full(form.N, np.nan)
+    none = Multipliers(np.full((form.N, form.n), np.nan), np.zeros((form.N, 0)),
+                       np.full((form.N, form.m), np.nan))
+    return Certificate(primal, nan, nan.copy(), target, none), primal <= target

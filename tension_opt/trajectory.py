@@ -127,7 +127,8 @@ def smooth_jointly(robot: CableRobot, poses: ArrayLike, objective: Any = "min_su
     sol = TensionSolution.from_form(
         form, T, status_array(N, status), backend=f"joint:{backend}",
         solver=solver or backend, iterations=None if iterations is None
-        else np.full(N, iterations), setup_time=setup, solve_time=elapsed, extras=extras)
+        else np.full(N, iterations), setup_time=setup, solve_time=elapsed, extras=extras,
+        accuracy=options.get("accuracy"), optimality=False)  # optimal as a path, not per pose
     if not sol.success.all():  # the path is one problem: one inaccurate pose taints it all
         sol.status[sol.success] = Status.INACCURATE
     return sol

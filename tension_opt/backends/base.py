@@ -10,8 +10,13 @@ Contract of every backend (the rest of the package relies on it):
   in progress on itself (each backend's docstring says how: per-call solver objects,
   per-thread caches or a lock).
 - **Honest statuses.** :meth:`Backend.solve` labels a pose ``OPTIMAL`` only with
-  finite tensions; a solver's exception on one pose becomes that pose's
-  ``SOLVER_ERROR``, its message kept in ``extras["errors"]``.
+  finite tensions whose certificate (:mod:`tension_opt.certificate`: primal residual,
+  dual residual and duality gap of the scaled problem, from the solver's multipliers
+  where it gives them) meets the accuracy target of the call; a solver's "optimal"
+  that misses it is ``INACCURATE``. The multipliers and the target go to
+  ``extras["multipliers"]`` and ``extras["accuracy_target"]`` (a solver asked for more
+  than it can reach says so in ``extras["accuracy"]``). A solver's exception on one
+  pose becomes that pose's ``SOLVER_ERROR``, its message kept in ``extras["errors"]``.
 - **Options.** ``solver_options`` a solver rejects (an unknown name, a value out of
   range) raise :class:`~tension_opt.errors.SolverError` carrying the solver's message
   before any pose is solved (:meth:`Backend.check_solver_options`).
@@ -31,9 +36,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from tension_opt.backends.settings import unreachable
 from tension_opt.backends.tiebreak import face_min_norm, lp_optimum_is_unique, optimal_face
+from tension_opt.certificate import Multipliers, accuracy_target, certify
 from tension_opt.errors import SolverError
 from tension_opt.problems import StandardForm
+from tension_opt.scaled import scaled_batch
 from tension_opt.solution import STATUS_DTYPE, Status, status_array
 
 #: Per-pose solver messages kept in ``extras["errors"]`` (the first ones of a batch).
@@ -42,7 +50,11 @@ MAX_ERRORS = 10
 
 @dataclass
 class RawResult:
-    """What a backend returns for a batch: tensions (N, m) and per-pose diagnostics."""
+    """What a backend returns for a batch: tensions (N, m) and per-pose diagnostics.
+
+    ``multipliers`` are the solver's, of the scaled problem
+    (:func:`tension_opt.scaled.scaled_batch`), NaN rows where it gave none.
+    """
 
     tensions: NDArray
     status: NDArray
@@ -52,6 +64,7 @@ class RawResult:
     unique: NDArray | None = None
     infeasibility: NDArray | None = None
     extras: dict[str, Any] = field(default_factory=dict)
+    multipliers: Multipliers | None = None
 
 
 class Backend:
@@ -84,7 +97,7 @@ class Backend:
         return None
 
     def solve(self, form: StandardForm, **options: Any) -> RawResult:
-        """Solve a batch; LP optima are tested for uniqueness and ties broken.
+        """Solve a batch, certify it, test LP optima for uniqueness and break ties.
 
         Raises
         ------
@@ -94,46 +107,84 @@ class Backend:
         self.check_solver_options(options)
         return honest(self._solve_and_break_ties(form, options))
 
+    def _certified(self, form: StandardForm, raw: RawResult, target: float) -> RawResult:
+        """``raw`` with its certificate: ``OPTIMAL`` poses that miss ``target`` become
+        ``INACCURATE``; the multipliers (completed where the solver gave none) and the
+        target go to the extras."""
+        batch = scaled_batch(form)
+        certificate = certify(batch, batch.lift(raw.tensions), raw.multipliers, target)
+        raw.status = np.asarray(raw.status, dtype=STATUS_DTYPE)
+        raw.status[(raw.status == Status.OPTIMAL) & ~certificate.certified] = Status.INACCURATE
+        raw.multipliers = certificate.multipliers
+        raw.extras["multipliers"] = certificate.multipliers
+        raw.extras["accuracy_target"] = target
+        note = None if self.exact else unreachable(self.solver, target)
+        if note is not None:
+            raw.extras["accuracy"] = note
+        return raw
+
     def _solve_and_break_ties(self, form: StandardForm, options: dict[str, Any]) -> RawResult:
-        first = self.solve_stage(form, **options)
+        target = accuracy_target(options.get("accuracy"))
+        first = self._certified(form, self.solve_stage(form, **options), target)
         problem = form.problem
         if not form.is_linear or (problem is not None and not problem.tie_break):
             first.unique = np.ones(form.N, dtype=bool)
             return first
-        ok = first.status == Status.OPTIMAL
+        assert first.multipliers is not None  # set by _certified
+        z = first.multipliers.bound_multipliers(form.m)  # of the scaled problem
         unique = np.ones(form.N, dtype=bool)
-        idx = np.flatnonzero(ok)
+        idx = np.flatnonzero(first.status == Status.OPTIMAL)
         if len(idx):
-            unique[idx] = lp_optimum_is_unique(form.subset(idx), first.tensions[idx])
+            unique[idx] = lp_optimum_is_unique(form.subset(idx), first.tensions[idx], z[idx])
         tied = np.flatnonzero(~unique)
+        first.unique = unique
         if len(tied):
-            t0 = time.perf_counter()
-            face = optimal_face(form.subset(tied), first.tensions[tied])
-            if self.unsupported(face) is not None:
-                # An LP-only solver: break the tie exactly on the optimal face.
-                broken, found = face_min_norm(form.subset(tied), first.tensions[tied])
-                first.tensions[tied] = broken
-                if not found.all():
-                    first.extras["tie_break"] = (
-                        f"{int((~found).sum())} optimal face(s) empty after rounding: "
-                        "vertex kept")
-                first.solve_time += time.perf_counter() - t0
-                first.unique = unique
-                return first
+            self._break_ties(form, first, tied, z[tied], options, target)
+        return first
+
+    def _break_ties(self, form: StandardForm, first: RawResult, tied: NDArray, z: NDArray,
+                    options: dict[str, Any], target: float) -> None:
+        """Move the tied poses of ``first`` to the minimum-norm point of their optimal
+        face (a second stage of this solver, certified on the face, else exactly), then
+        certify them again with the LP's multipliers (an LP's multipliers hold on its
+        whole optimal face)."""
+        t0 = time.perf_counter()
+        sub = form.subset(tied)
+        face = optimal_face(sub, first.tensions[tied], z)
+        setup = 0.0
+        if self.unsupported(face) is not None:
+            # An LP-only solver: break the tie exactly on the optimal face.
+            broken, found = face_min_norm(sub, first.tensions[tied], z)
+            first.tensions[tied] = broken
+            if not found.all():
+                first.extras["tie_break"] = (
+                    f"{int((~found).sum())} optimal face(s) empty after rounding: vertex kept")
+        else:
             second = self.solve_stage(face, **options)
-            good = second.status == Status.OPTIMAL
+            # The face's own certificate: a solver that stops short of the minimum norm
+            # (or keeps the vertex) hands the tie to the exact method.
+            face_batch = scaled_batch(face)
+            good = (second.status == Status.OPTIMAL) & certify(
+                face_batch, face_batch.lift(second.tensions), second.multipliers,
+                target).certified
             first.tensions[tied[good]] = second.tensions[good]
             if not good.all():  # the solver failed on the face: break the tie exactly
                 bad = tied[~good]
-                broken, found = face_min_norm(form.subset(bad), first.tensions[bad])
+                broken, found = face_min_norm(form.subset(bad), first.tensions[bad], z[~good])
                 first.tensions[bad] = broken
                 first.status[bad[~found]] = Status.INACCURATE
-            first.solve_time += time.perf_counter() - t0 - second.setup_time
-            first.setup_time += second.setup_time
+            setup = second.setup_time
             if first.iterations is not None and second.iterations is not None:
                 first.iterations[tied] += second.iterations
-        first.unique = unique
-        return first
+        batch = scaled_batch(sub)
+        assert first.multipliers is not None
+        again = certify(batch, batch.lift(first.tensions[tied]),
+                        first.multipliers.subset(tied), target)
+        first.multipliers.put(tied, again.multipliers)
+        missed = tied[(first.status[tied] == Status.OPTIMAL) & ~again.certified]
+        first.status[missed] = Status.INACCURATE
+        first.solve_time += time.perf_counter() - t0 - setup
+        first.setup_time += setup
 
     def solve_stage(self, form: StandardForm, **options: Any) -> RawResult:
         """Solve one stage (no tie-break). Generic backends override this."""

@@ -1,8 +1,11 @@
 """Backend ``cvxpy[:SOLVER]``: a cvxpy problem compiled once with Parameters, re-solved per pose.
 
-The problem is built in scaled units (see :mod:`tension_opt.backends.dense`) and is
-DPP-compliant, so cvxpy canonicalises it once per structure (sizes, objective kind,
-pattern of finite bounds) and each pose only updates parameter values.
+The problem is the scaled one every generic backend solves (:mod:`tension_opt.scaled`:
+tensions over a reference tension, equilibrium rows over their norms, objective of
+order one, a min-max term as an explicit epigraph variable) and is DPP-compliant, so
+cvxpy canonicalises it once per structure (sizes, objective kind, pattern of finite
+bounds) and each pose only updates parameter values. The constraints' dual values
+are the multipliers of the solution's certificate.
 """
 
 from __future__ import annotations
@@ -23,10 +26,11 @@ from tension_opt.backends.base import (
     pose_loop_result,
     quiet_solvers,
 )
-from tension_opt.backends.dense import scaled_objective, working_scale
 from tension_opt.backends.settings import solver_options
+from tension_opt.certificate import DEFAULT_TARGET, Multipliers, accuracy_target, certify
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.problems import StandardForm
+from tension_opt.scaled import ScaledBatch, scaled_batch
 from tension_opt.solution import Status
 
 try:
@@ -58,64 +62,97 @@ class _Compiled:
     cvxpy's per-solve overhead (about 1 ms) is shared by the ``K`` poses.
     """
 
-    def __init__(self, form: StandardForm, lb_mask: NDArray, ub_mask: NDArray) -> None:
+    def __init__(self, batch: ScaledBatch, extra: int, lb_mask: NDArray,
+                 ub_mask: NDArray) -> None:
         K, m = lb_mask.shape
-        n = form.n
+        n = batch.Aeq.shape[1]
         x = cp.Variable((K, m))
         self.A = [cp.Parameter((n, m)) for _ in range(K)]
         self.b = cp.Parameter((K, n))
         self.c = cp.Parameter((K, m))
-        constraints = [self.A[k] @ x[k] == self.b[k] for k in range(K)]
+        self.equations = [self.A[k] @ x[k] == self.b[k] for k in range(K)]
+        constraints: list[Any] = list(self.equations)
         self.lb = cp.Parameter(int(lb_mask.sum())) if lb_mask.any() else None
         self.ub = cp.Parameter(int(ub_mask.sum())) if ub_mask.any() else None
+        self.lb_mask, self.ub_mask = lb_mask, ub_mask
+        self.lower = self.upper = None
         if self.lb is not None:
-            constraints.append(x[np.nonzero(lb_mask)] >= self.lb)
+            self.lower = x[np.nonzero(lb_mask)] >= self.lb
+            constraints.append(self.lower)
         if self.ub is not None:
-            constraints.append(x[np.nonzero(ub_mask)] <= self.ub)
+            self.upper = x[np.nonzero(ub_mask)] <= self.ub
+            constraints.append(self.upper)
         self.G: list[Any] | None = None
         self.h = None
-        if form.G is not None:
-            g = form.G.shape[1]
-            self.G = [cp.Parameter((g, m)) for _ in range(K)]
-            self.h = cp.Parameter((K, g))
-            constraints += [self.G[k] @ x[k] <= self.h[k] for k in range(K)]
+        self.rows: list[Any] = []
+        if extra:
+            self.G = [cp.Parameter((extra, m)) for _ in range(K)]
+            self.h = cp.Parameter((K, extra))
+            self.rows = [self.G[k] @ x[k] <= self.h[k] for k in range(K)]
+            constraints += self.rows
         objective = cp.sum(cp.multiply(self.c, x))
         self.q = None
-        if form.q.any():
+        if batch.P[:, :m].any():
             # A parametrised diagonal Hessian, so QP-capable solvers get it as P (not a cone).
             self.q = cp.Parameter((K, m), nonneg=True)
             objective = objective + 0.5 * cp.sum(cp.multiply(self.q, cp.square(x)))
-        self.v_scale = None
-        if form.minmax is not None:  # unit-scaled weights, as the scaled objective has them
-            vmax = float(np.abs(form.minmax).max(initial=0.0)) or 1.0
-            weights = np.broadcast_to(form.minmax / vmax, (K, m))
-            self.v_scale = cp.Parameter(K, nonneg=True)
-            peaks = cp.max(cp.multiply(weights, x), axis=1)
-            objective = objective + cp.sum(cp.multiply(self.v_scale, peaks))
+        self.tau = self.epigraph = None
+        self.t = None
+        if batch.epigraph is not None:  # t >= (v_i / vmax) x_i, costing tau per pose
+            self.t = cp.Variable(K)
+            self.tau = cp.Parameter(K, nonneg=True)
+            weights = np.broadcast_to(batch.epigraph, (K, m))
+            self.epigraph = cp.multiply(weights, x) <= cp.reshape(self.t, (K, 1), order="C")
+            constraints.append(self.epigraph)
+            objective = objective + cp.sum(cp.multiply(self.tau, self.t))
         self.x = x
         self.problem = cp.Problem(cp.Minimize(objective), constraints)
 
     def load(self, call: _Call, rows: NDArray) -> None:
-        """Set the parameters to the poses ``rows`` (length K) of ``call.form``."""
-        form, s = call.form, call.s[rows]
-        lb_mask, ub_mask = call.lb_fin[rows], call.ub_fin[rows]
+        """Set the parameters to the poses ``rows`` (length K) of ``call.batch``."""
+        batch, m, extra = call.batch, call.batch.m, call.extra
         for k, i in enumerate(rows):
-            self.A[k].value = form.A[i]
-        self.b.value = form.b[rows] / s[:, None]
-        self.c.value = call.c[rows]
+            self.A[k].value = batch.Aeq[i, :, :m]
+        self.b.value = batch.beq[rows]
+        self.c.value = batch.c[rows, :m]
         if self.lb is not None:
-            self.lb.value = (form.lb[rows] / s[:, None])[lb_mask]
+            self.lb.value = batch.lb[rows, :m][self.lb_mask]
         if self.ub is not None:
-            self.ub.value = (form.ub[rows] / s[:, None])[ub_mask]
+            self.ub.value = batch.ub[rows, :m][self.ub_mask]
         if self.q is not None:
-            self.q.value = call.P[rows]
-        if self.v_scale is not None:
-            self.v_scale.value = call.tau[rows]
+            self.q.value = batch.P[rows, :m]
+        if self.tau is not None:
+            self.tau.value = batch.c[rows, m]
         if self.G is not None and self.h is not None:
-            assert form.G is not None and form.h is not None  # compiled from such a form
             for k, i in enumerate(rows):
-                self.G[k].value = form.G[i]
-            self.h.value = form.h[rows] / s[:, None]
+                self.G[k].value = batch.G[i, :extra, :m]
+            self.h.value = batch.h[rows, :extra]
+
+    def duals(self, batch: ScaledBatch, extra: int) -> Multipliers | None:
+        """The multipliers of the last solve (K poses), or None where cvxpy has none.
+
+        cvxpy's dual of ``A x == b`` has the certificate's sign; those of inequalities
+        are >= 0 (a lower bound's enters ``z`` negated).
+        """
+        K, m = self.lb_mask.shape
+        k_all, g = batch.k, batch.G.shape[1]
+        try:
+            y = np.array([np.asarray(e.dual_value, dtype=float) for e in self.equations])
+            z = np.zeros((K, m))
+            if self.lower is not None:
+                z[self.lb_mask] -= np.asarray(self.lower.dual_value, dtype=float).ravel()
+            if self.upper is not None:
+                z[self.ub_mask] += np.asarray(self.upper.dual_value, dtype=float).ravel()
+            mu = np.zeros((K, g))
+            if extra:
+                mu[:, :extra] = [np.asarray(r.dual_value, dtype=float) for r in self.rows]
+            if self.epigraph is not None:
+                mu[:, extra:] = np.asarray(self.epigraph.dual_value, dtype=float)
+        except (TypeError, ValueError):  # a solver that returned no duals
+            return None
+        if k_all > m:
+            z = np.concatenate([z, np.zeros((K, 1))], axis=1)
+        return Multipliers(y.reshape(K, -1), mu, z)
 
 
 # Compiled problems hold the parameter values of the call in progress, so each thread
@@ -185,36 +222,40 @@ class CvxpyBackend(Backend):
             return f"cvxpy's {self._solver} ignores {unknown}; it takes {sorted(known or ())}"
         return None
 
-    def _compiled(self, form: StandardForm, lb_mask: NDArray, ub_mask: NDArray) -> tuple[
+    def _compiled(self, call: _Call, lb_mask: NDArray, ub_mask: NDArray) -> tuple[
             _Compiled, float]:
-        key = (self._solver, form.n, form.m, form.kind, form.q.any(), form.minmax is not None,
-               None if form.minmax is None else form.minmax.tobytes(),
-               None if form.G is None else form.G.shape[1:], lb_mask.shape,
-               lb_mask.tobytes(), ub_mask.tobytes())
+        batch = call.batch
+        key = (self._solver, batch.Aeq.shape[1], batch.m, bool(batch.P[:, :batch.m].any()),
+               None if batch.epigraph is None else batch.epigraph.tobytes(), call.extra,
+               lb_mask.shape, lb_mask.tobytes(), ub_mask.tobytes())
         cache = _cache()
         if key in cache:
             return cache[key], 0.0
         t0 = time.perf_counter()
-        compiled = _Compiled(form, lb_mask, ub_mask)
+        compiled = _Compiled(batch, call.extra, lb_mask, ub_mask)
         cache[key] = compiled
         return compiled, time.perf_counter() - t0
 
     def solve_stage(self, form: StandardForm, **options: Any) -> RawResult:
-        """Solve chunks of ``batch_size`` poses per cvxpy solve (16; 1 at high accuracy).
+        """Solve chunks of ``batch_size`` poses per cvxpy solve (16, or 1 at a target
+        tighter than the default).
 
-        A chunk whose joint solve is not optimal (an infeasible pose in it, say) is
-        solved again pose by pose, so statuses stay per pose. Iterations are those of
-        the solve that produced the pose.
+        A chunk whose joint solve is not optimal (an infeasible pose in it, say), and
+        each pose of a chunk whose joint answer misses the accuracy target on its own,
+        is solved again pose by pose, so statuses and accuracy stay per pose.
+        Iterations are those of the solve that produced the pose.
         """
         t_setup = time.perf_counter()
-        s = working_scale(form)
-        call = _Call(form, s, *scaled_objective(form, s)[:3], np.isfinite(form.lb),
-                     np.isfinite(form.ub), bool(options.get("warm_start", False)),
+        batch = scaled_batch(form)
+        target = accuracy_target(options.get("accuracy"))
+        extra = 0 if form.G is None else form.G.shape[1]
+        call = _Call(batch, extra, np.isfinite(batch.lb[:, :batch.m]),
+                     np.isfinite(batch.ub[:, :batch.m]), bool(options.get("warm_start", False)),
                      solver_options(self._solver, options.get("accuracy"),
                                     options.get("time_limit"), options.get("solver_options"),
-                                    interface="cvxpy"))
-        # Joint stopping criteria loosen per-pose accuracy, so high accuracy goes pose by pose.
-        default_k = 1 if options.get("accuracy") == "high" else 16
+                                    interface="cvxpy"), target)
+        # Joint stopping criteria loosen per-pose accuracy: tight targets go pose by pose.
+        default_k = 1 if target < DEFAULT_TARGET else 16
         K = max(1, min(int(options.get("batch_size") or default_k), form.N))
         setup = time.perf_counter() - t_setup
         t0 = time.perf_counter()
@@ -227,38 +268,54 @@ class CvxpyBackend(Backend):
 
     def _solve_chunks(self, call: _Call, K: int) -> RawResult:
         """Solve the poses of ``call`` in chunks of ``K``; compile time is the setup."""
-        N, m = call.form.N, call.form.m
+        batch = call.batch
+        N, m = batch.N, batch.m
         T, status, iters = pose_loop_result(N, m)
+        duals = Multipliers.unknown(batch)
         extras: dict[str, Any] = {}
         has_iters = True
         compile_time = 0.0
         for start in range(0, N, K):
             # The last chunk is padded with its own last pose to keep one compiled size.
             rows = np.minimum(np.arange(start, start + K), N - 1)
+            again = range(start, min(start + K, N))
             if K > 1:
-                compiled, dt = self._compiled(call.form, call.lb_fin[rows], call.ub_fin[rows])
+                compiled, dt = self._compiled(call, call.lb_fin[rows], call.ub_fin[rows])
                 compile_time += dt
                 st, count, x = self._run(compiled, call, rows, extras)
                 if st == Status.OPTIMAL and x is not None:
                     real = rows[: min(K, N - start)]
-                    T[real] = x[: len(real)] * call.s[real, None]
+                    T[real] = x[: len(real)] * batch.scale[real, None]
                     status[real] = st
                     has_iters &= count is not None
                     iters[real] = count or 0
-                    continue
+                    found = compiled.duals(batch, call.extra)
+                    if found is not None:
+                        duals.put(real, found.subset(slice(0, len(real))))
+                    again = self._missed(call, T, duals, real)
                 extras.pop("errors", None)  # the poses say for themselves below
-            for i in range(start, min(start + K, N)):
+            for i in again:
                 one = np.array([i])
-                compiled, dt = self._compiled(call.form, call.lb_fin[one], call.ub_fin[one])
+                compiled, dt = self._compiled(call, call.lb_fin[one], call.ub_fin[one])
                 compile_time += dt
                 st, count, x = self._run(compiled, call, one, extras)
                 status[i] = st
                 has_iters &= count is not None
                 iters[i] = count or 0
                 if x is not None and st in (Status.OPTIMAL, Status.INACCURATE):
-                    T[i] = x[0] * call.s[i]
+                    T[i] = x[0] * batch.scale[i]
+                    found = compiled.duals(batch, call.extra)
+                    if found is not None:
+                        duals.put(one, found)
         return RawResult(T, status, iters if has_iters else None, compile_time, 0.0,
-                         extras=extras)
+                         extras=extras, multipliers=duals)
+
+    def _missed(self, call: _Call, T: NDArray, duals: Multipliers, rows: NDArray
+                ) -> list[int]:
+        """Poses ``rows`` of a joint solve whose answers miss the target on their own."""
+        sub = call.batch.subset(rows)
+        certificate = certify(sub, sub.lift(T[rows]), duals.subset(rows), call.target)
+        return [int(i) for i in rows[~certificate.certified]]
 
     def _run(self, compiled: _Compiled, call: _Call, rows: NDArray, extras: dict[str, Any]
              ) -> tuple[Status, int | None, NDArray | None]:
@@ -277,17 +334,15 @@ class CvxpyBackend(Backend):
 class _Call:
     """What every solve of one :meth:`CvxpyBackend.solve_stage` call shares."""
 
-    form: StandardForm
-    #: Typical tension per pose (N,), and the scaled Hessian, cost (N, m) and min-max
-    #: epigraph cost (N,) of :func:`~tension_opt.backends.dense.scaled_objective`.
-    s: NDArray
-    P: NDArray
-    c: NDArray
-    tau: NDArray
+    #: The scaled batch, and how many of its rows of ``G`` are extra rows of the form
+    #: (the rest are the epigraph rows of a min-max term).
+    batch: ScaledBatch
+    extra: int
     lb_fin: NDArray
     ub_fin: NDArray
     warm: bool
     settings: dict[str, Any]
+    target: float
 
 
 def available() -> list[str]:

@@ -23,6 +23,7 @@ from tension_opt.backends.base import (
 )
 from tension_opt.backends.dense import DenseBatch, dense_batch
 from tension_opt.backends.settings import solver_options
+from tension_opt.certificate import Multipliers
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.problems import StandardForm
 from tension_opt.solution import Status
@@ -152,6 +153,7 @@ class QpsolversBackend(Backend):
                        setup: float) -> RawResult:
         N, k = batch.N, batch.k
         x_all, status, iters = pose_loop_result(N, k)
+        duals = Multipliers.unknown(batch)
         extras: dict[str, Any] = {}
         has_iters = True
         t0 = time.perf_counter()
@@ -173,6 +175,7 @@ class QpsolversBackend(Backend):
             count = iterations_of(sol.extras or {})
             has_iters &= count is not None
             iters[i] = count or 0
+            _keep_duals(duals, i, sol, batch)
             if sol.found and sol.x is not None and np.isfinite(sol.x).all():
                 x_all[i], status[i] = sol.x, Status.OPTIMAL
                 x_prev = sol.x
@@ -185,7 +188,7 @@ class QpsolversBackend(Backend):
                         status[i] = Status.SOLVER_ERROR
         elapsed = time.perf_counter() - t0
         return RawResult(batch.tensions(x_all), status, iters if has_iters else None, setup,
-                         elapsed, extras=extras)
+                         elapsed, extras=extras, multipliers=duals)
 
     def _solve_daqp(self, batch: DenseBatch, settings: dict[str, Any], warm: bool,
                     setup: float) -> RawResult:
@@ -204,6 +207,7 @@ class QpsolversBackend(Backend):
         H = np.zeros((N, k, k))
         H[:, np.arange(k), np.arange(k)] = batch.P
         x_all, status, iters = pose_loop_result(N, k)
+        lam = np.full((N, k + g + n), np.nan)
         extras: dict[str, Any] = {}
         setup += time.perf_counter() - t0
         t0 = time.perf_counter()
@@ -228,13 +232,38 @@ class QpsolversBackend(Backend):
             iters[i] = info["iterations"]
             if flag > 0:
                 x_all[i] = x
+                lam[i] = info["lam"]
                 x_prev = x
         good = flags > 0
         status[good] = Status.OPTIMAL
         for j in np.flatnonzero(~good):
             status[j] = _DAQP_EXIT.get(int(flags[j]), Status.SOLVER_ERROR)
         elapsed = time.perf_counter() - t0
-        return RawResult(batch.tensions(x_all), status, iters, setup, elapsed, extras=extras)
+        # DAQP's multipliers: H x + f + A' lam = 0, bounds first (negative at a lower
+        # bound), then the inequality rows, then the equations: the certificate's signs.
+        duals = Multipliers(lam[:, k + g:], lam[:, k:k + g], lam[:, :k])
+        return RawResult(batch.tensions(x_all), status, iters, setup, elapsed, extras=extras,
+                         multipliers=duals)
+
+
+def _keep_duals(duals: Multipliers, i: int, sol: Any, batch: DenseBatch) -> None:
+    """Store a qpsolvers Solution's multipliers of pose ``i`` (its convention,
+    ``P x + q + G'z + A'y + z_box = 0``, is the certificate's); a pose whose solver
+    left some out stays unknown (its multipliers are then estimated)."""
+    bounded = bool(np.isfinite(batch.lb[i]).any() or np.isfinite(batch.ub[i]).any())
+    parts = []
+    for value, size in ((sol.y, batch.Aeq.shape[1]), (sol.z, batch.G.shape[1]),
+                        (sol.z_box, batch.k)):
+        if size == 0 or (value is None and size == batch.k and not bounded):
+            parts.append(np.zeros(size))  # no such rows, or no bounds were passed
+            continue
+        if value is None:
+            return
+        flat = np.asarray(value, dtype=float).ravel()
+        if flat.size != size:
+            return
+        parts.append(flat)
+    duals.y[i], duals.mu[i], duals.z[i] = parts
 
 
 def available() -> list[str]:

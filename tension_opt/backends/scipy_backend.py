@@ -16,6 +16,7 @@ from scipy.optimize import linprog
 from tension_opt.backends.base import Backend, RawResult, note_error, pose_loop_result
 from tension_opt.backends.dense import dense_batch
 from tension_opt.backends.settings import solver_options
+from tension_opt.certificate import Multipliers
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.problems import StandardForm
 from tension_opt.solution import Status
@@ -53,6 +54,7 @@ class ScipyHighsBackend(Backend):
                                   options.get("solver_options"), interface="scipy")
         N, k = batch.N, batch.k
         x_all, status, iters = pose_loop_result(N, k)
+        duals = Multipliers.unknown(batch)
         extras: dict[str, Any] = {}
         setup = time.perf_counter() - t0
         t0 = time.perf_counter()
@@ -73,8 +75,24 @@ class ScipyHighsBackend(Backend):
             iters[i] = int(getattr(res, "nit", 0) or 0)
             if res.status == 0:
                 x_all[i] = res.x
+                _keep_duals(duals, i, res, G is not None)
         elapsed = time.perf_counter() - t0
-        return RawResult(batch.tensions(x_all), status, iters, setup, elapsed, extras=extras)
+        return RawResult(batch.tensions(x_all), status, iters, setup, elapsed, extras=extras,
+                         multipliers=duals)
+
+
+def _keep_duals(duals: Multipliers, i: int, res: Any, rows: bool) -> None:
+    """Store linprog's marginals of pose ``i`` in the certificate's convention: linprog
+    has ``c = A_eq' l_eq + A_ub' l_ub + l_lower + l_upper`` (sensitivities), the
+    certificate ``c + A'y + G'mu + z = 0``, so every multiplier changes sign."""
+    try:
+        duals.y[i] = -np.asarray(res.eqlin.marginals, dtype=float)
+        if rows:
+            duals.mu[i] = -np.asarray(res.ineqlin.marginals, dtype=float)
+        duals.z[i] = -(np.asarray(res.lower.marginals, dtype=float)
+                       + np.asarray(res.upper.marginals, dtype=float))
+    except (AttributeError, TypeError, ValueError):  # no marginals: estimated instead
+        duals.y[i], duals.z[i] = np.nan, np.nan
 
 
 def available() -> list[str]:

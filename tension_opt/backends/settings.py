@@ -1,14 +1,21 @@
-"""One table of solver settings: an accuracy name and a time limit, in each solver's words.
+"""One table of solver settings: an accuracy target and a time limit, in each solver's words.
 
-``accuracy="default"`` leaves a solver at its own defaults; ``"high"`` asks for about
-1e-10 on primal feasibility, dual feasibility and the duality gap of the scaled problem
-(tensions in units of a typical tension per pose). A time limit (s) goes to the
-solvers that take one. Every backend translates through :func:`solver_options`, so a
-solver's option names are written here once.
+``accuracy`` names a target on the three measures of a solution's certificate, all
+taken on the scaled problem (:mod:`tension_opt.certificate`): primal residual (equilibrium
+and bounds), dual residual (stationarity) and duality gap. ``"default"`` is 1e-7,
+``"high"`` 1e-10, and a number between 1e-14 and 1e-2 is taken as the target itself.
+:data:`SETTINGS` says, per solver, which of its options bound those measures and at
+what fraction of the target to set them (solvers measure their own criteria a little
+differently, so most are asked for a tenth of it), plus the options it needs to get
+there (iteration caps, polishing). A solver whose :attr:`SolverSettings.floor` is above
+the target is run at its floor and reports so (:func:`unreachable`); every answer is
+judged by its certificate anyway, so a target a solver misses shows as ``inaccurate``.
 
-The table is keyed by the solver's lower-case name, whichever interface calls it
-(qpsolvers, cvxpy or scipy); :data:`CVXPY_NAMES` renames the few options cvxpy spells
-differently.
+A time limit (s) goes to the solvers that take one. Every backend translates through
+:func:`solver_options`, so a solver's option names are written here once. The table is
+keyed by the solver's lower-case name, whichever interface calls it (qpsolvers, cvxpy
+or scipy); :data:`CVXPY_NAMES` renames the few options cvxpy spells differently and
+:data:`CVXPY_DROPS` lists those its interface does not pass on.
 """
 
 from __future__ import annotations
@@ -20,10 +27,15 @@ from typing import Any
 
 import numpy as np
 
+from tension_opt.certificate import ACCURACY_TARGETS, DEFAULT_TARGET, accuracy_target
 from tension_opt.errors import InvalidInputError
 
-#: Accuracy names every backend accepts.
-ACCURACIES: tuple[str, ...] = ("default", "high")
+__all__ = ["ACCURACIES", "CVXPY_DROPS", "CVXPY_NAMES", "DEFAULT_TARGET", "OPTIONS",
+           "SETTINGS", "SolverSettings", "accuracy_target", "check_accuracy",
+           "check_options", "solver_options", "unreachable"]
+
+#: Accuracy names every backend accepts (a number between 1e-14 and 1e-2 is accepted too).
+ACCURACIES: tuple[str, ...] = tuple(ACCURACY_TARGETS)
 #: Keyword options every backend accepts (a backend ignores those it has no use for).
 OPTIONS: tuple[str, ...] = ("accuracy", "time_limit", "solver_options", "warm_start",
                             "batch_size")
@@ -31,69 +43,113 @@ OPTIONS: tuple[str, ...] = ("accuracy", "time_limit", "solver_options", "warm_st
 
 @dataclass(frozen=True)
 class SolverSettings:
-    """How one solver is told an accuracy and a time limit.
+    """How one solver is told an accuracy target and a time limit.
 
     Attributes
     ----------
-    high : dict
-        Options for ``accuracy="high"``, in the solver's own names.
+    tolerances : dict
+        The solver's tolerance options, each as a fraction of the target (the option
+        is set to ``fraction * target``).
+    fixed : dict
+        Options passed with every target (e.g. polishing, an iteration budget large
+        enough to reach it).
     always : dict
-        Options passed on every call (e.g. an iteration cap that keeps an infeasible
-        pose from running for minutes).
+        Options of every per-pose call (a cap that keeps an infeasible pose from
+        running for minutes); left out for larger problems (a whole path).
+    floor : float
+        Tightest target the solver reaches on these problems; below it the solver
+        runs at its floor.
     time_limit : str, optional
         Name of the solver's time-limit option (s), if it has one.
+    nest : str, optional
+        Name of a single option that holds the others as a dict (cvxpy's SCIPY).
     """
 
-    high: dict[str, Any] = field(default_factory=dict)
+    tolerances: dict[str, float] = field(default_factory=dict)
+    fixed: dict[str, Any] = field(default_factory=dict)
     always: dict[str, Any] = field(default_factory=dict)
+    floor: float = 1e-14
     time_limit: str | None = None
+    nest: str | None = None
+
+    @property
+    def high(self) -> dict[str, Any]:
+        """The options of ``accuracy="high"`` (as earlier versions had them)."""
+        return self.options(accuracy_target("high"))
+
+    def options(self, target: float) -> dict[str, Any]:
+        """The options that ask for ``target`` (at least the floor)."""
+        goal = max(target, self.floor)
+        options: dict[str, Any] = {name: fraction * goal
+                                   for name, fraction in self.tolerances.items()}
+        options.update(self.fixed)
+        return {self.nest: options} if self.nest and options else options
 
 
 #: Settings of every solver the backends know, by lower-case solver name.
 SETTINGS: dict[str, SolverSettings] = {
-    "daqp": SolverSettings(high={"primal_tol": 1e-10}),
-    "osqp": SolverSettings(
-        high={"eps_abs": 1e-10, "eps_rel": 1e-10, "polishing": True, "max_iter": 200000},
-        time_limit="time_limit"),
-    # ProxQP otherwise runs millions of iterations on an infeasible pose.
-    "proxqp": SolverSettings(high={"eps_abs": 1e-10, "eps_rel": 0.0},
-                             always={"max_iter": 200}),
-    "piqp": SolverSettings(high={"eps_abs": 1e-10, "eps_rel": 1e-11,
-                                 "eps_duality_gap_abs": 1e-10,
-                                 "eps_duality_gap_rel": 1e-10}),
-    "clarabel": SolverSettings(
-        high={"tol_gap_abs": 1e-10, "tol_gap_rel": 1e-10, "tol_feas": 1e-10},
-        time_limit="time_limit"),
-    "highs": SolverSettings(
-        high={"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10},
-        time_limit="time_limit"),
-    "scs": SolverSettings(high={"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iters": 100000},
-                          time_limit="time_limit_secs"),
+    # Active-set solvers land on vertices: their tolerance is one of feasibility. DAQP's
+    # equations hold to a few 1e-10 of the scaled problem (CoGiRo's LPs: up to 2e-9),
+    # whatever it is asked: its floor.
+    "daqp": SolverSettings({"primal_tol": 0.1}, floor=1e-8),
     "quadprog": SolverSettings(),
-    "ecos": SolverSettings(high={"abstol": 1e-10, "reltol": 1e-10, "feastol": 1e-10}),
+    "osqp": SolverSettings(
+        {"eps_abs": 0.1, "eps_rel": 0.1},
+        {"polishing": True, "polish_refine_iter": 10, "max_iter": 50000},
+        floor=1e-12, time_limit="time_limit"),
+    # ProxQP otherwise runs millions of iterations on an infeasible pose.
+    "proxqp": SolverSettings(
+        {"eps_abs": 0.1, "eps_duality_gap_abs": 0.1},
+        {"eps_rel": 0.0, "check_duality_gap": True}, always={"max_iter": 1000},
+        floor=1e-12),
+    "piqp": SolverSettings({"eps_abs": 0.1, "eps_rel": 0.01, "eps_duality_gap_abs": 0.1,
+                            "eps_duality_gap_rel": 0.1}, floor=1e-12),
+    "clarabel": SolverSettings({"tol_gap_abs": 0.1, "tol_gap_rel": 0.1, "tol_feas": 0.1,
+                                "tol_ktratio": 0.1}, floor=1e-12, time_limit="time_limit"),
+    # HiGHS refuses feasibility tolerances below 1e-10; its simplex lands on vertices.
+    "highs": SolverSettings({"primal_feasibility_tolerance": 1.0,
+                             "dual_feasibility_tolerance": 1.0}, floor=1e-10,
+                            time_limit="time_limit"),
+    "scs": SolverSettings({"eps_abs": 0.1, "eps_rel": 0.1}, {"max_iters": 100000},
+                          floor=1e-10, time_limit="time_limit_secs"),
+    "ecos": SolverSettings({"abstol": 0.1, "reltol": 0.1, "feastol": 0.1}, floor=1e-12),
     # cvxpy's SCIPY solver takes linprog's HiGHS options wrapped in one dictionary.
-    "scipy": SolverSettings(high={"scipy_options": {"primal_feasibility_tolerance": 1e-10,
-                                                    "dual_feasibility_tolerance": 1e-10}}),
+    "scipy": SolverSettings({"primal_feasibility_tolerance": 1.0,
+                             "dual_feasibility_tolerance": 1.0}, floor=1e-10,
+                            nest="scipy_options"),
 }
 
 #: Options that cvxpy names differently from the solver's own interface.
 CVXPY_NAMES: dict[str, dict[str, str]] = {"osqp": {"polishing": "polish"}}
+#: Options that cvxpy's interface of a solver does not pass on (it would drop them).
+CVXPY_DROPS: dict[str, frozenset[str]] = {
+    "proxqp": frozenset({"check_duality_gap", "eps_duality_gap_abs"}),
+    "osqp": frozenset({"polish_refine_iter"}),
+}
 
 
-def check_accuracy(accuracy: object) -> str:
-    """The accuracy name, checked.
+def unreachable(solver: str, accuracy: object) -> str | None:
+    """Why ``solver`` cannot be asked for the target of ``accuracy`` (None if it can)."""
+    target = accuracy_target(accuracy)
+    entry = SETTINGS.get(solver.lower(), SolverSettings())
+    if target < entry.floor:
+        return (f"{solver} cannot be asked for an accuracy of {target:g} (its floor is "
+                f"{entry.floor:g}); it ran at {entry.floor:g} and its answers are certified "
+                f"against {target:g}")
+    return None
+
+
+def check_accuracy(accuracy: object) -> str | float:
+    """The accuracy, checked: a name of :data:`ACCURACIES` (None is ``"default"``) or a
+    target between 1e-14 and 1e-2.
 
     Raises
     ------
     InvalidInputError
-        For a name outside :data:`ACCURACIES`.
+        For another name or a number out of range.
     """
-    if accuracy is None:
-        return "default"
-    if not isinstance(accuracy, str) or accuracy not in ACCURACIES:
-        raise InvalidInputError(
-            f"accuracy must be one of {list(ACCURACIES)}, got {accuracy!r}")
-    return accuracy
+    accuracy_target(accuracy)
+    return "default" if accuracy is None else accuracy  # type: ignore[return-value]
 
 
 def check_options(options: Mapping[str, Any]) -> None:
@@ -147,13 +203,14 @@ def solver_options(solver: str, accuracy: object = "default",
     ----------
     solver : str
         Solver name, any case (``"osqp"``, ``"CLARABEL"``).
-    accuracy : {"default", "high"}
+    accuracy : {"default", "high"} or float
+        The target on the certificate's measures (see the module docstring).
     time_limit : float, optional
         Seconds; passed where the solver has a time-limit option.
     user : mapping, optional
         The caller's ``solver_options``, in the solver's own names; they win.
     interface : {"qpsolvers", "cvxpy", "scipy"}
-        Who passes the options (cvxpy renames a few).
+        Who passes the options (cvxpy renames a few and drops others).
     per_pose : bool
         Whether the call solves one pose's small problem; the ``always`` caps are sized
         for those and left out for larger problems (a whole path).
@@ -165,13 +222,12 @@ def solver_options(solver: str, accuracy: object = "default",
     name = solver.lower()
     entry = SETTINGS.get(name, SolverSettings())
     options: dict[str, Any] = dict(entry.always) if per_pose else {}
-    if check_accuracy(accuracy) == "high":
-        options.update(entry.high)
+    options.update(entry.options(accuracy_target(accuracy)))
     if time_limit is not None and entry.time_limit is not None:
         options[entry.time_limit] = float(time_limit)
     if interface == "cvxpy":
-        renames = CVXPY_NAMES.get(name, {})
-        options = {renames.get(k, k): v for k, v in options.items()}
+        renames, drops = CVXPY_NAMES.get(name, {}), CVXPY_DROPS.get(name, frozenset())
+        options = {renames.get(k, k): v for k, v in options.items() if k not in drops}
     if user:
         if not isinstance(user, Mapping):
             raise InvalidInputError(

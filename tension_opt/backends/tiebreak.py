@@ -7,6 +7,12 @@ takes QPs, exactly otherwise (:func:`face_min_norm`): by enumeration on a face o
 most two dimensions (:func:`low_dim_face_solve`), as a least-distance program solved
 by non-negative least squares on a larger one (:func:`least_distance_face`), so that
 every backend breaks a tie to the same tensions, rank-deficient robots included.
+
+Both the test and the face use the multipliers of the solution's certificate
+(:mod:`tension_opt.certificate`) where they are given: a bound whose multiplier is
+clearly nonzero (:data:`MULTIPLIER_TOL`) holds on the whole optimal face, so the face
+keeps that cable at its bound and the test allows it no move; the other active bounds
+are judged from the tensions as before.
 """
 
 from __future__ import annotations
@@ -20,22 +26,45 @@ from tension_opt.problems import StandardForm
 
 #: Relative tolerance (of the typical tension) for "at a bound" in the uniqueness test.
 ACTIVE_TOL = 1e-6
+#: A bound multiplier (scaled problem, where costs are of order one) above this holds its
+#: bound on the whole optimal face.
+MULTIPLIER_TOL = 1e-6
 
 
-def lp_optimum_is_unique(form: StandardForm, T: NDArray, _square: bool = True) -> NDArray:
+def held_bounds(form: StandardForm, T: NDArray, multipliers: NDArray | None
+                ) -> tuple[NDArray, NDArray]:
+    """Bounds that hold on the whole optimal face by their multipliers: lower and upper
+    masks (N, m), each where the tension is at that bound and its multiplier (of the
+    scaled problem, (N, m); ``< 0`` lower, ``> 0`` upper) is beyond :data:`MULTIPLIER_TOL`.
+    Both masks are False without multipliers."""
+    if multipliers is None:
+        none = np.zeros(T.shape, dtype=bool)
+        return none, none.copy()
+    tol = ACTIVE_TOL * form.scale()[:, None]
+    with np.errstate(invalid="ignore"):
+        lower = np.isfinite(form.lb) & (T <= form.lb + tol) & (multipliers < -MULTIPLIER_TOL)
+        upper = np.isfinite(form.ub) & (T >= form.ub - tol) & (multipliers > MULTIPLIER_TOL)
+    return lower, upper
+
+
+def lp_optimum_is_unique(form: StandardForm, T: NDArray, multipliers: NDArray | None = None,
+                         _square: bool = True) -> NDArray:
     """Whether LP optima ``T`` (N, m) are the only optima of their problems, shape (N,).
 
     The optimum is unique iff no direction ``d != 0`` keeps equilibrium, the objective
     and the active constraints: ``A d = 0``, ``c.d = 0`` (or, for min-max, ``v_i d_i <= 0``
     for the cables at the maximum), ``d_i >= 0`` at a lower bound, ``d_i <= 0`` at an
-    upper bound. That cone lives in a space of dimension ``m - rank``: tested by sign
+    upper bound, and ``d_i = 0`` where a bound holds by its multiplier
+    (:func:`held_bounds`; ``multipliers`` (N, m) of the bounds in the scaled problem,
+    optional). That cone lives in a space of dimension ``m - rank``: tested by sign
     checks in dimension 1 and by a small LP beyond.
     """
     N, m = T.shape
     scale = form.scale()
     tol = ACTIVE_TOL * scale[:, None]
-    at_lb = np.isfinite(form.lb) & (T <= form.lb + tol)
-    at_ub = np.isfinite(form.ub) & (T >= form.ub - tol)
+    held = np.logical_or(*held_bounds(form, T, multipliers))
+    at_lb = np.isfinite(form.lb) & (T <= form.lb + tol) | held
+    at_ub = np.isfinite(form.ub) & (T >= form.ub - tol) | held
     if form.minmax is not None:
         vals = T * form.minmax
         at_ub |= vals >= vals.max(axis=1, keepdims=True) - tol
@@ -53,7 +82,9 @@ def lp_optimum_is_unique(form: StandardForm, T: NDArray, _square: bool = True) -
         doubt = np.flatnonzero(~(ratio > 1e-8))
         if not len(doubt):
             return unique
-        unique[doubt] = lp_optimum_is_unique(form.subset(doubt), T[doubt], _square=False)
+        unique[doubt] = lp_optimum_is_unique(
+            form.subset(doubt), T[doubt],
+            None if multipliers is None else multipliers[doubt], _square=False)
         return unique
     s = np.linalg.svd(E, compute_uv=False)
     rank = (s > 1e-10 * s[:, :1]).sum(axis=1)
@@ -96,14 +127,24 @@ def _cone_has_ray(basis: NDArray, lower: NDArray, upper: NDArray) -> bool:
     return False
 
 
-def optimal_face(form: StandardForm, T: NDArray) -> StandardForm:
+def optimal_face(form: StandardForm, T: NDArray, multipliers: NDArray | None = None
+                 ) -> StandardForm:
     """Stage-two problem: minimum 2-norm over the optimal set of an LP solved at ``T``.
 
     The optimal value is relaxed by a relative ``1e-9`` so that a solver's rounding
-    cannot make the face empty.
+    cannot make the face empty. With the bound ``multipliers`` (N, m) of the scaled
+    problem, bounds that hold on the whole face (:func:`held_bounds`) keep their cable
+    within the same relaxation of the bound.
     """
     N, m = T.shape
     scale = form.scale()
+    lower, upper = held_bounds(form, T, multipliers)
+    if lower.any() or upper.any():
+        room = (1e-9 * np.abs(T) + 1e-12 * scale[:, None])
+        ub = np.where(lower, np.minimum(form.ub, form.lb + room), form.ub)
+        lb = np.where(upper, np.maximum(form.lb, form.ub - room), form.lb)
+        form = StandardForm(form.A, form.b, lb, ub, form.q, form.c, form.minmax,
+                            form.problem, form.previous, form.G, form.h, form.reference)
     if form.minmax is not None:
         fstar = (T * form.minmax).max(axis=1)
         cap = (fstar + 1e-9 * np.abs(fstar) + 1e-12 * scale)[:, None] / form.minmax
@@ -117,12 +158,14 @@ def optimal_face(form: StandardForm, T: NDArray) -> StandardForm:
                         h=(fstar + slack)[:, None])
 
 
-def low_dim_face_solve(form: StandardForm, T: NDArray) -> NDArray | None:
+def low_dim_face_solve(form: StandardForm, T: NDArray, multipliers: NDArray | None = None
+                       ) -> NDArray | None:
     """Minimum-norm point of the optimal face exactly, when that face is at most 2-D.
 
     Used by LP-only backends for the tie-break. Returns None if some face is larger.
+    ``multipliers`` (N, m) as for :func:`optimal_face`.
     """
-    face = optimal_face(form, T)
+    face = optimal_face(form, T, multipliers)
     _N, m = T.shape
     if face.G is not None:
         E = np.concatenate([face.A, face.G], axis=1)
@@ -156,11 +199,13 @@ def low_dim_face_solve(form: StandardForm, T: NDArray) -> NDArray | None:
     return out
 
 
-def face_min_norm(form: StandardForm, T: NDArray) -> tuple[NDArray, NDArray]:
+def face_min_norm(form: StandardForm, T: NDArray, multipliers: NDArray | None = None
+                  ) -> tuple[NDArray, NDArray]:
     """Minimum-norm points of the optimal faces of LP optima ``T`` (N, m), exactly.
 
     Faces of at most two dimensions are enumerated (:func:`low_dim_face_solve`), larger
-    ones solved as least-distance programs (:func:`least_distance_face`).
+    ones solved as least-distance programs (:func:`least_distance_face`); ``multipliers``
+    (N, m) as for :func:`optimal_face`.
 
     Returns
     -------
@@ -168,18 +213,20 @@ def face_min_norm(form: StandardForm, T: NDArray) -> tuple[NDArray, NDArray]:
         The tie-broken tensions (N); the vertex ``T`` where no point was found.
     found : ndarray of bool, shape (N,)
     """
-    small = low_dim_face_solve(form, T)
+    small = low_dim_face_solve(form, T, multipliers)
     if small is not None:
         return small, np.ones(len(T), dtype=bool)
     out, found = T.copy(), np.zeros(len(T), dtype=bool)
     for k in range(len(T)):
-        point = least_distance_face(form.subset(slice(k, k + 1)), T[k:k + 1])
+        point = least_distance_face(form.subset(slice(k, k + 1)), T[k:k + 1],
+                                    None if multipliers is None else multipliers[k:k + 1])
         if point is not None:
             out[k], found[k] = point, True
     return out, found
 
 
-def least_distance_face(form: StandardForm, T: NDArray) -> NDArray | None:
+def least_distance_face(form: StandardForm, T: NDArray, multipliers: NDArray | None = None
+                        ) -> NDArray | None:
     """Minimum-norm point of the optimal face of one pose's LP optimum ``T`` (1, m).
 
     With ``Z`` an orthonormal basis of the null space of ``A`` (rank-revealing SVD, so
@@ -188,11 +235,11 @@ def least_distance_face(form: StandardForm, T: NDArray) -> NDArray | None:
     least-distance program ``min ||z||  s.t.  M z >= r`` (bounds and the optimal-value
     row), solved exactly by non-negative least squares (Lawson and Hanson, *Solving
     Least Squares Problems*, ch. 23). Returns the tensions (m,), or None if rounding
-    left the face empty.
+    left the face empty. ``multipliers`` (1, m) as for :func:`optimal_face`.
     """
     from scipy.optimize import nnls
 
-    face = optimal_face(form, T)
+    face = optimal_face(form, T, multipliers)
     s = float(form.scale()[0])
     _, sv, vt = np.linalg.svd(face.A[0], full_matrices=True)
     rank = int((sv > 1e-10 * sv[0]).sum()) if sv.size and sv[0] > 0 else 0

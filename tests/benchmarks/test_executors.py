@@ -57,16 +57,18 @@ def test_chunks_keep_order_scenarios_and_problem_groups(cells: list[harness.Cell
     assert payload.scenario == "thesis_snapshots" and payload.cells[0][0] == "min_sum"
 
 
-def test_process_pool_gives_the_same_table_and_resumes(cells: list[harness.Cell],
+def test_process_pool_gives_the_same_table_and_measures_again(cells: list[harness.Cell],
         tmp_path: Path, expected: pd.DataFrame, reference: harness.ResultsStore) -> None:
     store = harness.ResultsStore(tmp_path)
     frame = harness.run(cells, store, progress=False, executor="processes:2", chunk_size=3)
     _assert_same_table(frame, expected)
     _assert_same_table(store.load(), reference.load())
     _assert_same_traces(store, reference)
-    # A second run runs nothing: the stored rows, timings included, are untouched.
+    # A finished run is not resumed: a second run measures every cell again, in a run of
+    # its own, with the same reproducible columns.
     again = harness.run(cells, store, progress=False, executor="processes:2")
     pd.testing.assert_frame_equal(again, store.load())
+    assert again["run"].nunique() == 1 and set(again["run"]).isdisjoint(set(frame["run"]))
     pd.testing.assert_frame_equal(_stable(again), _stable(frame), check_dtype=False,
                                   rtol=1e-5)  # the CSV keeps 6 significant digits
     assert not store.journal_path.exists()
@@ -129,7 +131,7 @@ def test_failed_chunk_becomes_error_rows_and_the_run_goes_on(cells: list[harness
     assert len(calls) == 3  # every chunk ran once: the failure did not resend the rest
 
 
-def test_dask_cluster_gives_the_same_table_and_resumes(cells: list[harness.Cell],
+def test_dask_cluster_gives_the_same_table_and_measures_again(cells: list[harness.Cell],
         tmp_path: Path, expected: pd.DataFrame, reference: harness.ResultsStore,
         dask_client: Any) -> None:
     store = harness.ResultsStore(tmp_path)
@@ -144,16 +146,24 @@ def test_dask_cluster_gives_the_same_table_and_resumes(cells: list[harness.Cell]
     assert dask_client.status == "running"  # a client passed in is left open
     again = harness.run(cells, store, progress=False, executor=dask_client)
     pd.testing.assert_frame_equal(again, store.load())
+    assert set(again["run"]).isdisjoint(set(frame["run"]))  # measured again
     pd.testing.assert_frame_equal(_stable(again), _stable(frame), check_dtype=False,
                                   rtol=1e-5)
 
 
 def test_rows_of_cluster_machines_count_as_done(cells: list[harness.Cell], tmp_path: Path) -> None:
     store = harness.ResultsStore(tmp_path)
-    row = {**harness.base_row(cells[0]), "machine": "worker-7 / x86_64 / 64 cores"}
-    store.append(row)
+    run, resumed = store.start_run("an invocation", 2)
+    assert not resumed
+    worker = "worker-7 / x86_64 / 64 cores"
+    store.append({**harness.base_row(cells[0]), "machine": worker, "run": run})
+    # A row that came from elsewhere (no run of this database) never counts.
+    store.append({**harness.base_row(cells[1]), "machine": worker})
     assert store.done() == set()
-    assert store.done({"worker-7 / x86_64 / 64 cores"}) == {cells[0].key}
+    assert store.done({worker}) == {cells[0].key} == store.done(run=run)
+    assert store.start_run("an invocation", 2) == (run, True)  # interrupted: resumed
+    store.finish_run(run)
+    assert store.start_run("an invocation", 2)[1] is False  # finished: a new run
 
 
 def test_command_line_executor_option(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,

@@ -9,6 +9,7 @@ import pytest
 from benchmarks import metrics
 from benchmarks.scenarios import pick_and_place, snapshot_poses
 from tension_opt import distribute, presets
+from tension_opt.problems import StandardForm
 
 # Two cables over five poses: steps (+1, +2, -4, +1) and (0, +10, 0, -10).
 SERIES = np.array([[0.0, 5.0], [1.0, 5.0], [3.0, 15.0], [-1.0, 15.0], [0.0, 5.0]])
@@ -95,3 +96,19 @@ def test_pick_and_place_path() -> None:
     np.testing.assert_allclose(p[12], [0.0, 0.0, 2.0], atol=1e-12)
     np.testing.assert_allclose(np.linalg.norm(np.diff(p, axis=0), axis=1), 0.5)
     assert pick_and_place(dip_both_ways=True).shape == (29, 3)
+
+
+def test_objective_excess_is_measured_on_the_scaled_problem() -> None:
+    from tension_opt.backends.base import probe_form
+
+    # T1 + T2 = 1, T >= 0, min T1 + 2 T2; scaled costs (1/2, 1): f* = 1/2 at (1, 0),
+    # f = 3/4 at (1/2, 1/2), relative to max(1, |f*|) = 1.
+    form = probe_form(0.0)
+    excess = metrics.objective_excess(form, np.array([[0.5, 0.5]]), np.array([[1.0, 0.0]]))
+    assert excess == pytest.approx([0.25])
+    same = metrics.objective_excess(form, np.array([[1.0, 0.0]]), np.array([[1.0, 0.0]]))
+    assert same == pytest.approx([0.0])
+    # A thousand times the weight (bounds and all): the same excess.
+    big = StandardForm(form.A, 1e3 * form.b, form.lb, form.ub, form.q, form.c)
+    assert metrics.objective_excess(big, np.array([[500.0, 500.0]]),
+                                    np.array([[1e3, 0.0]])) == pytest.approx([0.25])

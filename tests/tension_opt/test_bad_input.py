@@ -209,7 +209,9 @@ def test_a_rank_deficient_robot_is_answered_the_same_by_every_backend() -> None:
     for backend in ("qpsolvers:daqp", "scipy:highs", "cvxpy:CLARABEL", "qpsolvers:highs"):
         if backend not in to.available_backends():
             continue
-        sol = to.distribute(robot, np.zeros(6), "min_sum", backend, accuracy="high")
+        # DAQP's equations hold to about 1e-10 of the scaled problem: asked for its floor.
+        accuracy = "default" if backend.endswith("daqp") else "high"
+        sol = to.distribute(robot, np.zeros(6), "min_sum", backend, accuracy=accuracy)
         assert sol.success.all() and not sol.unique.any()
         np.testing.assert_allclose(sol.tensions, auto.tensions, rtol=1e-6, err_msg=backend)
 

@@ -7,7 +7,13 @@ import pytest
 
 import tension_opt as to
 from tension_opt.backends import registry
-from tension_opt.backends.settings import ACCURACIES, SETTINGS, check_options, solver_options
+from tension_opt.backends.settings import (
+    ACCURACIES,
+    SETTINGS,
+    check_options,
+    solver_options,
+    unreachable,
+)
 
 
 def test_every_family_is_listed_and_serves_its_names() -> None:
@@ -53,17 +59,42 @@ def test_a_named_backend_that_cannot_take_the_problem_names_those_that_can() -> 
 
 
 def test_settings_translate_one_accuracy_into_each_solvers_words() -> None:
-    assert solver_options("osqp", "default") == {}
+    # The default target is 1e-7 on the certificate's measures: most solvers are asked
+    # for a tenth of it in their own words; "high" is 1e-10, a number is the target.
+    default = solver_options("osqp", "default")
+    assert default["eps_abs"] == pytest.approx(1e-8) and default["polishing"] is True
     high = solver_options("osqp", "high")
-    assert high["eps_abs"] == 1e-10 and high["polishing"] is True
+    assert high["eps_abs"] == pytest.approx(1e-11) and high["polishing"] is True
+    assert solver_options("osqp", 1e-5)["eps_rel"] == pytest.approx(1e-6)
     assert solver_options("OSQP", "high", interface="cvxpy")["polish"] is True
-    assert solver_options("scs", "default", time_limit=2.0) == {"time_limit_secs": 2.0}
-    assert solver_options("proxqp", "default") == {"max_iter": 200}
-    assert solver_options("proxqp", "default", per_pose=False) == {}
+    assert "polish_refine_iter" not in solver_options("OSQP", "high", interface="cvxpy")
+    assert solver_options("scs", "default", time_limit=2.0)["time_limit_secs"] == 2.0
+    assert solver_options("proxqp", "default")["max_iter"] == 1000
+    assert "max_iter" not in solver_options("proxqp", "default", per_pose=False)
+    assert "eps_duality_gap_abs" not in solver_options("proxqp", "high", interface="cvxpy")
     assert solver_options("daqp", "high", user={"primal_tol": 1e-6}) == {"primal_tol": 1e-6}
+    # HiGHS refuses tolerances below 1e-10: asked for less, it runs at its floor.
+    assert solver_options("highs", 1e-12)["primal_feasibility_tolerance"] == 1e-10
+    assert unreachable("highs", 1e-12) is not None and unreachable("highs", "high") is None
+    assert solver_options("scipy", "high", interface="cvxpy") == {"scipy_options": {
+        "primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}}
     assert set(ACCURACIES) == {"default", "high"}
     for name in ("daqp", "osqp", "proxqp", "piqp", "clarabel", "highs", "scs"):
         assert SETTINGS[name].high, name
+
+
+def test_an_accuracy_names_a_target_the_certificate_is_judged_by() -> None:
+    study = to.presets.algae_harvester()
+    poses = [[0.0, 0.0, 0.0], [1.0, 2.0, 3.0]]
+    for accuracy, target in (("default", 1e-7), ("high", 1e-10), (1e-5, 1e-5)):
+        sol = to.distribute(study, poses, "min_norm", "qpsolvers:osqp", accuracy=accuracy)
+        assert sol.accuracy == target
+        assert sol.success.all()
+        assert (sol.primal_residual <= target).all() and (sol.dual_residual <= target).all()
+        assert (sol.duality_gap <= target).all()
+    for bad in ("ultra", 0.5, 1e-20, -1.0, float("nan")):
+        with pytest.raises(to.InvalidInputError, match="accuracy"):
+            check_options({"accuracy": bad})
 
 
 def test_bad_options_are_input_errors_that_list_the_valid_ones() -> None:

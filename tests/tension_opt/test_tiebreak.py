@@ -6,10 +6,12 @@ import numpy as np
 
 import tension_opt as to
 from tension_opt.backends.tiebreak import (
+    held_bounds,
     low_dim_face_solve,
     lp_optimum_is_unique,
     optimal_face,
 )
+from tension_opt.certificate import certify_form
 from tension_opt.problems import StandardForm
 
 
@@ -65,3 +67,25 @@ def test_every_backend_breaks_the_study_robots_tie_the_same_way() -> None:
         sol = to.distribute(robot, [[0.0, 0.0, 0.0]], "min_sum", backend=backend)
         assert sol.unique.tolist() == [False], backend
         np.testing.assert_allclose(sol.tensions[0], 4714.6, atol=0.15)
+
+
+def test_the_certificates_multipliers_hold_bounds_on_the_face() -> None:
+    # min T1 + T2 + 2 T3: T3's bound multiplier is -1/2 (scaled), T1's and T2's zero, so
+    # T3 stays at 0 on the whole optimal face; the face and the test see the same thing.
+    form = _form([1.0, 1.0, 2.0])
+    vertex = np.array([[0.0, 6.0, 0.0]])
+    z = certify_form(form, vertex).multipliers.bound_multipliers(3)
+    np.testing.assert_allclose(z, [[0.0, 0.0, -0.5]], atol=1e-12)
+    lower, upper = held_bounds(form, vertex, z)
+    assert lower.tolist() == [[False, False, True]] and not upper.any()
+    face = optimal_face(form, vertex, z)
+    assert face.ub[0, 2] <= 1e-9  # T3 kept at its bound (within the face's slack)
+    assert lp_optimum_is_unique(form, vertex, z).tolist() == [False]
+    np.testing.assert_allclose(low_dim_face_solve(form, vertex, z), [[3.0, 3.0, 0.0]],
+                               atol=1e-9)
+    # A strict cost: the vertex's multipliers hold both other bounds, a single optimum.
+    strict = _form([1.0, 2.0, 3.0])
+    point = np.array([[6.0, 0.0, 0.0]])
+    z = certify_form(strict, point).multipliers.bound_multipliers(3)
+    assert held_bounds(strict, point, z)[0].tolist() == [[False, True, True]]
+    assert lp_optimum_is_unique(strict, point, z).tolist() == [True]

@@ -1,0 +1,179 @@
+"""A batch of problems as the generic solvers see it: scaled, lifted, dense, per pose.
+
+:func:`scaled_batch` writes a :class:`~tension_opt.problems.StandardForm` in the units
+of :meth:`StandardForm.scaling <tension_opt.problems.StandardForm.scaling>` (tensions
+over a reference tension, equilibrium rows over their norms, objective over its size)
+and lifts a min-max term to an epigraph variable ``t >= (v_i / vmax) x_i``::
+
+    minimise   1/2 x' diag(P) x + c' x
+    subject to Aeq x = beq,  G x <= h,  lb <= x <= ub
+
+Every generic backend hands these matrices to its solver, and the certificate of any
+solution (:mod:`tension_opt.certificate`) is measured on the same matrices, so a
+solver's tolerance and the certificate mean the same thing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tension_opt.problems import Scaling, StandardForm
+
+__all__ = ["ScaledBatch", "scaled_batch", "scaled_objective", "working_scale"]
+
+
+@dataclass
+class ScaledBatch:
+    """``min 1/2 x'diag(P)x + c'x  s.t.  Aeq x = beq, G x <= h, lb <= x <= ub`` per pose.
+
+    Attributes
+    ----------
+    P, c, lb, ub : ndarray, shape (N, k)
+        ``k = m`` (+1 for a min-max epigraph variable, last).
+    Aeq : ndarray, shape (N, n, k)
+        Equilibrium rows over their norms.
+    beq : ndarray, shape (N, n)
+    G : ndarray, shape (N, g, k)
+        Extra rows over their norms, then the ``m`` epigraph rows of a min-max term.
+    h : ndarray, shape (N, g)
+    scale : ndarray, shape (N,)
+        Reference tension per pose (N): ``T = scale x``.
+    m : int
+        Number of cables.
+    scaling : Scaling
+        The form's :class:`~tension_opt.problems.Scaling`.
+    epigraph : ndarray, shape (m,), optional
+        Min-max weights over their largest (the epigraph rows), None without min-max.
+    """
+
+    P: NDArray
+    c: NDArray
+    Aeq: NDArray
+    beq: NDArray
+    G: NDArray
+    h: NDArray
+    lb: NDArray
+    ub: NDArray
+    scale: NDArray
+    m: int
+    scaling: Scaling | None = None
+    epigraph: NDArray | None = None
+
+    @property
+    def N(self) -> int:
+        """Number of poses."""
+        return int(self.P.shape[0])
+
+    @property
+    def k(self) -> int:
+        """Variables per pose (cables, and the epigraph variable of a min-max term)."""
+        return int(self.P.shape[1])
+
+    def subset(self, index: NDArray | slice) -> ScaledBatch:
+        """The poses ``index`` (indices, mask or slice); each pose's scaling is its own."""
+        return ScaledBatch(self.P[index], self.c[index], self.Aeq[index], self.beq[index],
+                           self.G[index], self.h[index], self.lb[index], self.ub[index],
+                           self.scale[index], self.m, None, self.epigraph)
+
+    def tensions(self, x: NDArray) -> NDArray:
+        """Tensions (N, m) (N) of scaled solutions ``x`` (N, k)."""
+        return x[:, : self.m] * self.scale[:, None]
+
+    def lift(self, tensions: NDArray) -> NDArray:
+        """Scaled variables ``x`` (N, k) of tensions (N, m) (N); the epigraph variable
+        is the smallest that holds, ``max_i (v_i / vmax) x_i``."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            x = np.asarray(tensions, dtype=float) / self.scale[:, None]
+        if self.epigraph is None:
+            return x
+        return np.concatenate([x, (x * self.epigraph).max(axis=1, keepdims=True)], axis=1)
+
+    def objective(self, x: NDArray) -> NDArray:
+        """Scaled objective ``1/2 x'Px + c'x`` of ``x`` (N, k), shape (N,)."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            return np.einsum("nk,nk->n", 0.5 * self.P * x + self.c, x)
+
+
+def working_scale(form: StandardForm) -> NDArray:
+    """Reference tension per pose (N), shape (N,), finite even where
+    :meth:`StandardForm.scale` overflows (``form.scaling().tension``)."""
+    return form.scaling().tension
+
+
+def scaled_objective(form: StandardForm, s: NDArray | None = None,
+                     scaling: Scaling | None = None
+                     ) -> tuple[NDArray, NDArray, NDArray, NDArray | None]:
+    """The objective in units ``T = s x``, divided by its own size.
+
+    Each pose's objective is divided by ``s^2 max_i q_i`` where it has a quadratic
+    term (its largest Hessian entry becomes 1), else by ``s`` times its largest cost or
+    min-max weight (its largest cost becomes 1). No ``s^2`` is formed, so nothing
+    overflows. A min-max term ``max_i v_i x_i`` is written ``vmax * max_i (v_i / vmax)
+    x_i`` so that its epigraph rows have unit weights whatever the scale of ``v``.
+
+    Parameters
+    ----------
+    form : StandardForm
+    s : ndarray, shape (N,), optional
+        Reference tension per pose (N); default ``form.scaling().tension``.
+    scaling : Scaling, optional
+        ``form.scaling()``, if already at hand.
+
+    Returns
+    -------
+    P, c : ndarray, shape (N, m)
+        Scaled diagonal Hessian and cost.
+    tau : ndarray, shape (N,)
+        Scaled cost of the epigraph variable.
+    v : ndarray, shape (m,), or None
+        Min-max weights over their largest, ``v / vmax``.
+    """
+    scaling = form.scaling() if scaling is None else scaling
+    s = scaling.tension if s is None else s
+    top = scaling.top
+    per_s = np.where(scaling.quadratic, s, 1.0)  # a QP's linear term also shrinks by s
+    tau = scaling.vmax / top / per_s
+    v = None if form.minmax is None else form.minmax / scaling.vmax
+    return form.q / top[:, None], form.c / top[:, None] / per_s[:, None], tau, v
+
+
+def _unit_rows(M: NDArray, rhs: NDArray) -> tuple[NDArray, NDArray]:
+    """Rows of ``M x <= rhs`` (N, g, k) over their norms (zero rows kept)."""
+    norms = np.linalg.norm(M, axis=2)
+    factor = np.where(norms > 0, 1.0 / np.where(norms > 0, norms, 1.0), 1.0)
+    return M * factor[..., None], rhs * factor
+
+
+def scaled_batch(form: StandardForm) -> ScaledBatch:
+    """Scaled, lifted dense matrices of a batch (see the module docstring)."""
+    N, n, m = form.N, form.n, form.m
+    scaling = form.scaling()
+    s = scaling.tension
+    P, c, tau, v_hat = scaled_objective(form, s, scaling)
+    with np.errstate(over="ignore", invalid="ignore"):
+        Aeq = form.A * scaling.rows[..., None]
+        beq = form.b * scaling.rows / s[:, None]
+        lb = form.lb / s[:, None]
+        ub = form.ub / s[:, None]
+        if form.G is None or form.h is None:
+            G, h = np.zeros((N, 0, m)), np.zeros((N, 0))
+        else:
+            G, h = _unit_rows(form.G, form.h / s[:, None])
+    if v_hat is not None:
+        k = m + 1
+        P = np.concatenate([P, np.zeros((N, 1))], axis=1)
+        c = np.concatenate([c, tau[:, None]], axis=1)
+        Aeq = np.concatenate([Aeq, np.zeros((N, n, 1))], axis=2)
+        lb = np.concatenate([lb, np.full((N, 1), -np.inf)], axis=1)
+        ub = np.concatenate([ub, np.full((N, 1), np.inf)], axis=1)
+        # (v_i / vmax) x_i - t <= 0
+        rows = np.zeros((N, m, k))
+        rows[:, np.arange(m), np.arange(m)] = v_hat
+        rows[:, :, m] = -1.0
+        G = np.concatenate([np.concatenate([G, np.zeros((N, G.shape[1], 1))], axis=2), rows],
+                           axis=1)
+        h = np.concatenate([h, np.zeros((N, m))], axis=1)
+    return ScaledBatch(P, c, Aeq, beq, G, h, lb, ub, s, m, scaling, v_hat)
