@@ -109,8 +109,7 @@ def _distribute_batch(robot: CableRobot, p: NDArray, problem: TensionProblem,
     sequence, the tensions the pose after it is smoothed against (its last optimal
     ones, else ``prev``)."""
     t0 = time.perf_counter()
-    A = robot.structure_matrices(p)
-    b = robot.required_wrench(p, wrench)
+    A, b = robot.equilibrium(p, wrench)
     geometry_time = time.perf_counter() - t0
     sequential = problem.is_sequential and (prev is None or prev.ndim == 1)
     # For a sequence this is the shape of every smoothed pose, to choose and check with.

@@ -336,8 +336,10 @@ class Distributor:
         prev = (np.ascontiguousarray(np.broadcast_to(as_finite("previous", previous), (N, m)))
                 if has_prev else self._no_prev[None, :])
         T, info, codes = np.empty((N, m)), np.empty((N, 3)), np.empty(N, dtype=np.int64)
-        self._kernels.solve_batch(self._data, np.ascontiguousarray(p), w, prev, has_prev,
-                                  T, info, codes)
+        from tension_opt.kernels import launch
+
+        launch.run(self._kernels.solve_batch, self._kernels.solve_batch_serial, N,
+                   self._data, np.ascontiguousarray(p), w, prev, has_prev, T, info, codes)
         redo = np.flatnonzero(codes >= _BAD_INPUT)
         return self._numpy(p, wrench, previous, redo, (T, info, codes))
 

@@ -22,20 +22,46 @@ from tension_opt.backends.base import Backend, RawResult
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.nullspace import RANK_TOL, min_of_max_lines, pinv_and_null, solution_set
 from tension_opt.problems import StandardForm
-from tension_opt.solution import Status, status_array
+from tension_opt.solution import FEASIBILITY_TOL, STATUS_DTYPE, Status, status_array
 
 #: Poses per block of the four-cable path (about 20 arrays of this length are live).
 _BLOCK = 8192
+#: Raw status of each code of the compiled kernel below its solver error (optimal,
+#: infeasible, unbounded, inaccurate: optimal as the numpy path reports it); codes from
+#: the solver error on go to the numpy path.
+_RAW_STATUS = np.array([s.value for s in (Status.OPTIMAL, Status.INFEASIBLE,
+                                          Status.UNBOUNDED, Status.OPTIMAL,
+                                          Status.SOLVER_ERROR)], dtype=STATUS_DTYPE)
+_SOLVER_ERROR = 4
 
 
 class ClosedFormBackend(Backend):
-    """Exact, vectorised solutions where the null space has dimension 1 or 2."""
+    """Exact solutions where the null space has dimension 1 or 2.
+
+    Parameters
+    ----------
+    compiled : bool
+        Solve the poses with the compiled kernel
+        (:func:`tension_opt.kernels.closed_form.solve_forms`, in parallel over large
+        batches), the numpy path answering the poses it hands back (a singular or
+        badly conditioned structure matrix, data near the float range). False: the
+        numpy path alone, the reference the kernel is tested against. The statuses,
+        tensions (to rounding), uniqueness and infeasibility are those of the numpy
+        path either way.
+    """
 
     name = "closed_form"
     exact = True
 
+    def __init__(self, compiled: bool = True) -> None:
+        self.compiled = bool(compiled)
+
     @property
     def version(self) -> str:
+        if self.compiled:
+            import numba
+
+            return f"numba {numba.__version__}, numpy {np.__version__}"
         return f"numpy {np.__version__}"
 
     def unsupported(self, form: StandardForm) -> str | None:
@@ -52,15 +78,48 @@ class ClosedFormBackend(Backend):
 
     def solve(self, form: StandardForm, **options: Any) -> RawResult:
         t0 = time.perf_counter()
+        if self.compiled and form.N:
+            T, status, unique, infeas = self._solve_compiled(form)
+        else:
+            T, status, unique, infeas = self._solve_numpy(form)
+        elapsed = time.perf_counter() - t0
+        return RawResult(T, status, np.zeros(form.N, dtype=int), 0.0, elapsed, unique, infeas)
+
+    def _solve_compiled(self, form: StandardForm) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """The compiled kernel over every pose; the poses it hands back by the numpy path.
+
+        The kernel's status codes are the raw statuses of the numpy path, save its
+        "inaccurate" (an optimum outside the feasibility check), which the numpy path
+        reports as optimal, leaving the judgement to the solution.
+        """
+        from tension_opt.kernels import closed_form, launch
+
+        N, m = form.N, form.m
+        v = np.ones((1, m)) if form.minmax is None else np.asarray(
+            form.minmax, dtype=float).reshape(-1, m)
+        T, info, codes = np.empty((N, m)), np.empty((N, 2)), np.empty(N, dtype=np.int64)
+        arrays = [np.ascontiguousarray(x, dtype=float)
+                  for x in (form.A, form.b, form.lb, form.ub, form.q, form.c)]
+        launch.run(closed_form.solve_forms, closed_form.solve_forms_serial, N, *arrays,
+                   np.ascontiguousarray(v), form.minmax is not None, form.kind == "qp",
+                   FEASIBILITY_TOL, T, info, codes)
+        status = _RAW_STATUS[np.minimum(codes, len(_RAW_STATUS) - 1)]
+        unique, infeas = info[:, 0] != 0.0, info[:, 1]
+        redo = np.flatnonzero(codes >= _SOLVER_ERROR)
+        if len(redo):
+            T[redo], status[redo], unique[redo], infeas[redo] = self._solve_numpy(
+                form.subset(redo))
+        return T, status, unique, infeas
+
+    def _solve_numpy(self, form: StandardForm) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """The numpy path (the reference) over every pose."""
         if (form.n, form.m) == (3, 4) and form.kind in ("lp", "qp"):
             # Blocks whose temporaries stay in cache: large batches are memory bound.
             parts = [self._solve_point4(form.subset(slice(i, i + _BLOCK)))
                      for i in range(0, form.N, _BLOCK)]
             T, status, unique, infeas = (np.concatenate(p) for p in zip(*parts, strict=True))
-        else:
-            T, status, unique, infeas = self._solve_general(form)
-        elapsed = time.perf_counter() - t0
-        return RawResult(T, status, np.zeros(form.N, dtype=int), 0.0, elapsed, unique, infeas)
+            return T, status, unique, infeas
+        return self._solve_general(form)
 
     def _solve_general(self, form: StandardForm) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         # One SVD serves the rank check and, beyond 3 x 4, the particular solution and

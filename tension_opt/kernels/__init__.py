@@ -20,5 +20,7 @@ The batch kernels allocate one work array per chunk of poses.
   dimension 1 and 2 (every objective it covers, the tie-break, the feasibility check
   of the status), one pose, a parallel batch or a sequence;
 - :mod:`tension_opt.kernels.dense_qp`: the scaled dense QP of one pose for DAQP and
-  the certificate of DAQP's answer.
+  the certificate of DAQP's answer;
+- :mod:`tension_opt.kernels.launch`: when a batch kernel runs in parallel (large
+  batches, one launch at a time, never in a forked child of an OpenMP process).
 """

@@ -1,6 +1,8 @@
 """The exact closed form of one pose, compiled: problem terms, null space, optimum,
 status; and the same over a batch of poses (in parallel) or a sequence (in order,
-each pose smoothed against the answer before).
+each pose smoothed against the answer before); and over the poses of a standard form
+(:func:`solve_forms`, the closed-form backend's kernel behind the plain
+:func:`tension_opt.distribute`).
 
 The reference is :class:`tension_opt.backends.closed_form.ClosedFormBackend` with the
 status rule of :meth:`tension_opt.solution.TensionSolution.from_form`: a pose is
@@ -18,11 +20,21 @@ from numba import njit, prange
 from numpy.typing import NDArray
 
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
-from tension_opt.kernels.lowdim import LP, MINMAX, QP, lowdim_work, lp_2d, qp_2d, solve_1d
+from tension_opt.kernels.lowdim import (
+    FLAT_TOL,
+    LP,
+    MINMAX,
+    QP,
+    lowdim_work,
+    lp_2d,
+    qp_2d,
+    solve_1d,
+)
 from tension_opt.kernels.nullspace import null_space, null_space_work
 
-__all__ = ["CODE_BAD_INPUT", "CODE_FALLBACK", "CODE_STATUS", "HEADER", "form_terms", "judge",
-           "pack", "pose_scales", "solve_batch", "solve_form", "solve_one", "solve_sequence",
+__all__ = ["CODE_BAD_INPUT", "CODE_FALLBACK", "CODE_STATUS", "HEADER", "HUGE", "form_terms",
+           "judge", "pack", "point4", "pose_scales", "solve_batch", "solve_batch_serial",
+           "solve_form", "solve_forms", "solve_forms_serial", "solve_one", "solve_sequence",
            "work_size"]
 
 #: Status codes of the kernels and the :class:`~tension_opt.solution.Status` values
@@ -233,6 +245,20 @@ def solve_one(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
                       work[o + 4 * m:])
 
 
+@njit(cache=True, error_model="numpy")
+def _batch_chunk(j: int, data: NDArray, poses: NDArray, wrenches: NDArray, prev: NDArray,
+                 has_prev: bool, T: NDArray, info: NDArray, codes: NDArray) -> None:
+    """Chunk ``j`` (:data:`CHUNK` poses) of :func:`solve_batch`, with its own work space."""
+    N, m, n = poses.shape[0], int(data[1]), int(data[2])
+    work = np.empty(work_size(m, n))
+    for k in range(j * CHUNK, min(N, (j + 1) * CHUNK)):
+        w = wrenches[k] if wrenches.shape[0] > 1 else wrenches[0]
+        p = prev[k] if prev.shape[0] > 1 else prev[0]
+        code, unique, res, infeas = solve_one(data, poses[k], w, p, has_prev, work, T[k])
+        codes[k] = code
+        info[k, 0], info[k, 1], info[k, 2] = 1.0 if unique else 0.0, res, infeas
+
+
 @njit(cache=True, error_model="numpy", parallel=True)
 def solve_batch(data: NDArray, poses: NDArray, wrenches: NDArray, prev: NDArray,
                 has_prev: bool, T: NDArray, info: NDArray, codes: NDArray) -> None:
@@ -242,17 +268,16 @@ def solve_batch(data: NDArray, poses: NDArray, wrenches: NDArray, prev: NDArray,
     ``T`` (N, m), ``info`` (N, 3) ``(unique, residual, infeasibility)`` and ``codes``
     (N,) written. Work space is allocated once per chunk of :data:`CHUNK` poses.
     """
-    N, m, n = poses.shape[0], int(data[1]), int(data[2])
-    size = work_size(m, n)
-    chunks = (N + CHUNK - 1) // CHUNK
-    for j in prange(chunks):
-        work = np.empty(size)
-        for k in range(j * CHUNK, min(N, (j + 1) * CHUNK)):
-            w = wrenches[k] if wrenches.shape[0] > 1 else wrenches[0]
-            p = prev[k] if prev.shape[0] > 1 else prev[0]
-            code, unique, res, infeas = solve_one(data, poses[k], w, p, has_prev, work, T[k])
-            codes[k] = code
-            info[k, 0], info[k, 1], info[k, 2] = 1.0 if unique else 0.0, res, infeas
+    for j in prange((poses.shape[0] + CHUNK - 1) // CHUNK):
+        _batch_chunk(j, data, poses, wrenches, prev, has_prev, T, info, codes)
+
+
+@njit(cache=True, error_model="numpy")
+def solve_batch_serial(data: NDArray, poses: NDArray, wrenches: NDArray, prev: NDArray,
+                       has_prev: bool, T: NDArray, info: NDArray, codes: NDArray) -> None:
+    """:func:`solve_batch` in the calling thread (the same arithmetic per pose)."""
+    for j in range((poses.shape[0] + CHUNK - 1) // CHUNK):
+        _batch_chunk(j, data, poses, wrenches, prev, has_prev, T, info, codes)
 
 
 @njit(cache=True, error_model="numpy")
@@ -274,3 +299,165 @@ def solve_sequence(data: NDArray, poses: NDArray, wrenches: NDArray, last: NDArr
             last[:] = T[k]
             has_last = True
     return poses.shape[0]
+
+
+#: Largest magnitude of the data of a pose the form kernels take (beyond it, squares
+#: overflow where the numpy path rescales: that pose goes to the numpy path).
+HUGE = 1e150
+
+
+@njit(cache=True, error_model="numpy")
+def _plain(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray
+           ) -> bool:
+    """Whether a pose's data are all of magnitude below :data:`HUGE` (bounds may be
+    infinite) and not NaN."""
+    for i in range(A.shape[0]):
+        if not abs(b[i]) < HUGE:
+            return False
+        for j in range(A.shape[1]):
+            if not abs(A[i, j]) < HUGE:
+                return False
+    for j in range(q.size):
+        if not (abs(q[j]) < HUGE and abs(c[j]) < HUGE):
+            return False
+        if not ((abs(lb[j]) < HUGE or lb[j] == -np.inf) and (abs(ub[j]) < HUGE
+                                                            or ub[j] == np.inf)):
+            return False
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def point4(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
+           quadratic: bool, T: NDArray, work: NDArray) -> tuple[bool, bool]:
+    """Four cables, three equations (LP or QP): the numpy path's shortcut
+    (``ClosedFormBackend._solve_point4``), tensions written to ``T``; returns
+    ``(settled, unique)``. A particular solution comes from cables 1-3 by Cramer's rule
+    and the null vector from the same cross products; poses with cables 1-3 nearly
+    coplanar, no feasible tension, or a cable that does not move along the null
+    vector are not settled (the general path answers them). ``work``: 17 floats."""
+    u = A  # columns u_i = A[:, i]
+    # C_j: u2 x u3, u3 x u1, u1 x u2 (cables 1-3 counted from one), one per row.
+    C = work[:9].reshape((3, 3))
+    for j in range(3):
+        a, e = (j + 1) % 3, (j + 2) % 3
+        C[j, 0] = u[1, a] * u[2, e] - u[2, a] * u[1, e]
+        C[j, 1] = u[2, a] * u[0, e] - u[0, a] * u[2, e]
+        C[j, 2] = u[0, a] * u[1, e] - u[1, a] * u[0, e]
+    det = u[0, 0] * C[0, 0] + u[1, 0] * C[0, 1] + u[2, 0] * C[0, 2]
+    if not abs(det) > 1e-9:
+        return False, True
+    Tp, n = work[9:13], work[13:17]
+    Tp[3] = 0.0
+    for j in range(3):
+        Tp[j] = (b[0] * C[j, 0] + b[1] * C[j, 1] + b[2] * C[j, 2]) / det
+        n[j] = u[0, 3] * C[j, 0] + u[1, 3] * C[j, 1] + u[2, 3] * C[j, 2]
+    n[3] = -det
+    top = max(max(abs(n[0]), abs(n[1])), max(abs(n[2]), abs(n[3])))
+    lo, hi, nn = -np.inf, np.inf, 0.0
+    for i in range(4):
+        if not abs(n[i]) > 1e-9 * top:
+            return False, True
+        nn += n[i] * n[i]
+        r_lb, r_ub = (lb[i] - Tp[i]) / n[i], (ub[i] - Tp[i]) / n[i]
+        if n[i] > 0:
+            lo, hi = max(lo, r_lb), min(hi, r_ub)
+        else:
+            lo, hi = max(lo, r_ub), min(hi, r_lb)
+    if not lo <= hi:
+        return False, True
+    unique = True
+    if quadratic:
+        num = den = 0.0
+        for i in range(4):
+            num += (q[i] * Tp[i] + c[i]) * n[i]
+            den += q[i] * n[i] * n[i]
+        t = -num / den
+        if math.isnan(t):  # numpy's clip keeps a NaN, which sends the pose on
+            return False, True
+        t = min(max(t, lo), hi)
+    else:
+        slope = cc = tn = 0.0
+        for i in range(4):
+            slope += c[i] * n[i]
+            cc += c[i] * c[i]
+            tn += Tp[i] * n[i]
+        flat = abs(slope) <= FLAT_TOL * math.sqrt(cc * nn)
+        t = min(max(-tn / nn, lo), hi) if flat else (lo if slope > 0 else hi)
+        unique = not flat or lo == hi
+    if not math.isfinite(t):
+        return False, True
+    for i in range(4):
+        T[i] = Tp[i] + t * n[i]
+    return True, unique
+
+
+@njit(cache=True, error_model="numpy")
+def _forms_chunk(j: int, A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray,
+                 c: NDArray, v: NDArray, minmax: bool, quadratic: bool, tol_factor: float,
+                 T: NDArray, info: NDArray, codes: NDArray) -> None:
+    """Poses ``j * CHUNK ...`` of :func:`solve_forms`, with one work space."""
+    N, n, m = A.shape
+    work = np.empty(work_size(m, n))
+    for k in range(j * CHUNK, min(N, (j + 1) * CHUNK)):
+        vk = v[k] if v.shape[0] > 1 else v[0]
+        own = False  # whether the pose is as quadratic as its batch
+        for i in range(m):
+            own = own or q[k, i] != 0.0
+        code, unique, infeas = CODE_FALLBACK, True, np.nan
+        if own == quadratic and _plain(A[k], b[k], lb[k], ub[k], q[k], c[k]):
+            settled = False
+            if n == 3 and m == 4 and not minmax:  # as the numpy path: its shortcut first
+                settled, unique = point4(A[k], b[k], lb[k], ub[k], q[k], c[k], quadratic,
+                                         T[k], work)
+            if settled:
+                code = 0
+            else:
+                code, unique, _, infeas = solve_form(A[k], b[k], lb[k], ub[k], q[k], c[k],
+                                                     vk, minmax, tol_factor, T[k], work)
+        codes[k] = code
+        info[k, 0], info[k, 1] = 1.0 if unique else 0.0, infeas
+
+
+@njit(cache=True, error_model="numpy", parallel=True)
+def solve_forms(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
+                v: NDArray, minmax: bool, quadratic: bool, tol_factor: float, T: NDArray,
+                info: NDArray, codes: NDArray) -> None:
+    """:func:`solve_form` over the poses of a standard form, in parallel over chunks of
+    :data:`CHUNK` poses (one work space per chunk).
+
+    Parameters
+    ----------
+    A : ndarray, shape (N, n, m)
+    b : ndarray, shape (N, n)
+    lb, ub, q, c : ndarray, shape (N, m)
+        The form's arrays (``StandardForm``).
+    v : ndarray, shape (N, m) or (1, m)
+        Min-max weights (any row where ``minmax`` is False).
+    minmax, quadratic : bool
+        The form's kind: min-max; a quadratic term in some pose. A pose whose own ``q``
+        disagrees with ``quadratic``, or with data of magnitude :data:`HUGE` or more,
+        is left to the numpy path.
+    tol_factor : float
+        Factor of the feasibility check of :func:`judge`.
+    T : ndarray, shape (N, m)
+        Tensions (N), written.
+    info : ndarray, shape (N, 2)
+        ``(unique, infeasibility)`` per pose, written.
+    codes : ndarray of int, shape (N,)
+        :data:`CODE_STATUS` index per pose, or :data:`CODE_FALLBACK`, written.
+    """
+    chunks = (A.shape[0] + CHUNK - 1) // CHUNK
+    for j in prange(chunks):
+        _forms_chunk(j, A, b, lb, ub, q, c, v, minmax, quadratic, tol_factor, T, info,
+                     codes)
+
+
+@njit(cache=True, error_model="numpy")
+def solve_forms_serial(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray,
+                       c: NDArray, v: NDArray, minmax: bool, quadratic: bool,
+                       tol_factor: float, T: NDArray, info: NDArray, codes: NDArray
+                       ) -> None:
+    """:func:`solve_forms` in the calling thread (the same arithmetic per pose)."""
+    for j in range((A.shape[0] + CHUNK - 1) // CHUNK):
+        _forms_chunk(j, A, b, lb, ub, q, c, v, minmax, quadratic, tol_factor, T, info,
+                     codes)

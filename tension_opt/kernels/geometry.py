@@ -10,11 +10,15 @@ with the numpy path to rounding.
 from __future__ import annotations
 
 import math
+from typing import Any
 
+import numpy as np
 from numba import njit, prange
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.errors import InvalidInputError
+from tension_opt.kernels.launch import run
+from tension_opt.kinds import KINDS
 
 __all__ = [
     "GEOMETRY_DEGENERATE",
@@ -23,7 +27,9 @@ __all__ = [
     "KIND_CODES",
     "geometry_batch",
     "geometry_into",
+    "geometry_serial",
     "kind_code",
+    "robot_geometry",
     "rotation",
 ]
 
@@ -122,7 +128,8 @@ def geometry_into(kind: int, anchors: NDArray, attachments: NDArray, com: NDArra
     -------
     int
         :data:`GEOMETRY_OK`, :data:`GEOMETRY_DEGENERATE` (a zero-length cable) or
-        :data:`GEOMETRY_OVERFLOW` (cable lengths beyond the float range).
+        :data:`GEOMETRY_OVERFLOW` (cable lengths, or the wrench added to gravity,
+        beyond the float range).
     """
     R00, R01, R02, R10, R11, R12, R20, R21, R22 = rotation(kind, pose)
     px, py, pz = _position(kind, pose)
@@ -157,6 +164,8 @@ def geometry_into(kind: int, anchors: NDArray, attachments: NDArray, com: NDArra
         b[0], b[1], b[2], b[3], b[4], b[5] = 0.0, 0.0, weight, m0, m1, 0.0
     for k in range(b.size):
         b[k] = b[k] - wrench[k] + 0.0
+        if not math.isfinite(b[k]):
+            code = GEOMETRY_OVERFLOW
     return code
 
 
@@ -165,7 +174,61 @@ def geometry_batch(kind: int, anchors: NDArray, attachments: NDArray, com: NDArr
                    weight: float, zero_length: float, poses: NDArray, wrenches: NDArray,
                    A: NDArray, b: NDArray, codes: NDArray) -> None:
     """:func:`geometry_into` over poses (N, n) in parallel: ``A`` (N, n, m), ``b`` (N, n)
-    and the return codes (N,) written; ``wrenches`` (N, n)."""
+    and the return codes (N,) written; ``wrenches`` (N, n), or (1, n) for one wrench
+    on every pose."""
     for k in prange(poses.shape[0]):
+        w = wrenches[k] if wrenches.shape[0] > 1 else wrenches[0]
         codes[k] = geometry_into(kind, anchors, attachments, com, weight, zero_length,
-                                 poses[k], wrenches[k], A[k], b[k])
+                                 poses[k], w, A[k], b[k])
+
+
+@njit(cache=True, error_model="numpy")
+def geometry_serial(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
+                    weight: float, zero_length: float, poses: NDArray, wrenches: NDArray,
+                    A: NDArray, b: NDArray, codes: NDArray) -> None:
+    """:func:`geometry_batch` in the calling thread (the same arithmetic per pose)."""
+    for k in range(poses.shape[0]):
+        w = wrenches[k] if wrenches.shape[0] > 1 else wrenches[0]
+        codes[k] = geometry_into(kind, anchors, attachments, com, weight, zero_length,
+                                 poses[k], w, A[k], b[k])
+
+
+def robot_geometry(robot: Any, poses: NDArray, wrench: ArrayLike | None
+                   ) -> tuple[NDArray, NDArray] | None:
+    """Structure matrices (N, n, m) and required wrenches (N, n) of a robot's validated
+    poses (N, n), compiled; None where the numpy path must answer (and raise).
+
+    That is: a robot kind this module does not know (or a pattern of its own under a
+    known name), a wrench that is not a finite array of shape (n,) or (N, n), and a
+    batch with a pose the kernel flags (a cable on its drawing point, lengths or
+    wrench beyond the float range): the numpy path raises the package's error for
+    these, naming the pose.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    poses : ndarray, shape (N, n)
+        Validated poses (:meth:`CableRobot.as_poses`).
+    wrench : array_like, shape (n,) or (N, n), optional
+        External wrench besides gravity (N, N m).
+    """
+    code = KIND_CODES.get(robot.kind, -1)
+    if code < 0 or type(robot.pattern) is not type(KINDS[robot.kind]):
+        return None
+    N, n = poses.shape
+    if wrench is None:
+        w = np.zeros((1, n))
+    else:
+        try:
+            w = np.asarray(wrench, dtype=float)
+        except (TypeError, ValueError):
+            return None
+        if w.shape not in ((n,), (N, n)) or not np.isfinite(w).all():
+            return None
+        w = np.ascontiguousarray(w.reshape(-1, n))
+    anchors, m = robot.anchors, robot.anchors.shape[0]
+    A, b, codes = np.empty((N, n, m)), np.empty((N, n)), np.empty(N, dtype=np.int64)
+    run(geometry_batch, geometry_serial, N, code, anchors, robot.attachments, robot.com,
+        robot.mass * robot.g, 1e-12 * max(1.0, float(np.abs(anchors).max())),
+        np.ascontiguousarray(poses), w, A, b, codes)
+    return (A, b) if not codes.any() else None

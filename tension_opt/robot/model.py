@@ -406,6 +406,18 @@ class CableRobot:
                 raise InvalidInputError(f"wrench overflows when added to gravity: {wrench!r}"[:300])
         return b
 
+    def equilibrium(self, poses: ArrayLike, wrench: ArrayLike | None = None
+                    ) -> tuple[NDArray, NDArray]:
+        """:meth:`structure_matrices` (N, n, m) and :meth:`required_wrench` (N, n) at
+        once, in compiled code (:func:`tension_opt.kernels.geometry.robot_geometry`)
+        where it applies, else by those methods; the same values to rounding and the
+        same errors."""
+        p = self.as_poses(poses)
+        from tension_opt.kernels.geometry import robot_geometry  # loads numba when first used
+
+        compiled = robot_geometry(self, p, wrench)
+        return compiled or (self.structure_matrices(p), self.required_wrench(p, wrench))
+
     def forward_kinematics(
         self,
         lengths: ArrayLike,

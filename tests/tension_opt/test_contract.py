@@ -34,6 +34,9 @@ from tension_opt.kinds import KINDS
 from tension_opt.objectives import OBJECTIVES
 from tension_opt.solution import FEASIBILITY_TOL, Status
 
+# Kernels compile before the watchdog times any call (see tests/conftest.py).
+pytestmark = pytest.mark.usefixtures("compiled_kernels")
+
 #: Longest a single call may take (s) before the watchdog calls it a hang.
 CALL_LIMIT = 20.0
 PACKAGE_ERRORS = (to.TensionOptError, catenary.CatenaryError)

@@ -1,0 +1,74 @@
+"""When a batch kernel runs in parallel, and one parallel launch at a time.
+
+numba runs ``prange`` loops on a threading layer chosen once per process (tbb, OpenMP
+or its own "workqueue"). The layers differ in what they survive:
+
+- "workqueue" (numba's fallback when neither tbb nor OpenMP is installed) aborts the
+  process when two Python threads launch parallel kernels at once;
+- GNU OpenMP ("omp", the layer numba picks on most Linux machines without tbb)
+  terminates a forked child that launches a parallel kernel after its parent did
+  (process pools and isolated workers are forked children).
+
+So :func:`run` launches the parallel variant of a kernel only for batches of at least
+:data:`PARALLEL_MIN` poses, one launch at a time in the process (:data:`LOCK`: two
+launches at once would only share the same cores), and never in a forked child of a
+process whose OpenMP layer is running; otherwise it runs the serial variant, which is
+safe from any thread and in any process. Both variants compute every pose alike, so
+the answers do not depend on the choice.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from collections.abc import Callable
+from typing import Any
+
+__all__ = ["LOCK", "PARALLEL_MIN", "parallel_allowed", "run"]
+
+#: Poses from which a batch runs in parallel. Each launch waits for every worker thread
+#: to be scheduled, which on a busy machine can take a scheduler quantum (milliseconds):
+#: measured on a loaded 2-core machine, 10^4 poses in chunks of 4096 took 4 us/pose in
+#: parallel against 0.6 us/pose serial. So only batches that carry several milliseconds
+#: of work per launch go parallel; :func:`tension_opt.distribute`'s default chunks
+#: (4096 poses) stay serial, and small batches from many Python threads never wait.
+PARALLEL_MIN = 16384
+#: Held while a parallel kernel runs.
+LOCK = threading.Lock()
+_state = {"forked": False, "parallel": None}
+
+
+def _after_fork_in_child() -> None:
+    _state["forked"], _state["parallel"] = True, None
+
+
+os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
+def parallel_allowed() -> bool:
+    """Whether this process may launch parallel kernels: numba has more than one
+    thread, and the process is no forked child of a parent whose OpenMP layer runs."""
+    allowed = _state["parallel"]
+    if allowed is None:
+        import numba
+
+        # The configured count: asking numba.get_num_threads() would start the layer.
+        allowed = numba.config.NUMBA_NUM_THREADS > 1
+        if allowed and _state["forked"]:
+            try:
+                layer = numba.threading_layer()  # the parent's, if it launched any
+            except ValueError:  # none started yet: this process starts its own
+                layer = None
+            allowed = layer != "omp"
+        _state["parallel"] = allowed
+    return bool(allowed)
+
+
+def run(parallel: Callable[..., Any], serial: Callable[..., Any], count: int,
+        *args: Any) -> Any:
+    """``parallel(*args)`` for a batch of ``count >= PARALLEL_MIN`` poses where allowed
+    (:func:`parallel_allowed`), holding :data:`LOCK`; ``serial(*args)`` otherwise."""
+    if count >= PARALLEL_MIN and parallel_allowed():
+        with LOCK:
+            return parallel(*args)
+    return serial(*args)
