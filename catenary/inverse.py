@@ -15,6 +15,15 @@ Every cable hangs as an elastic catenary in its vertical plane
     (forces and moments), with the tensions chosen by the same objectives as
     :func:`tension_opt.distribute`; solved by sequential convex programming
     (:class:`catenary.coupled.CoupledSolver`).
+
+Compiled path
+-------------
+The thesis model solves one pose (n,) by compiled kernels
+(:mod:`catenary.compiled_thesis`, built once per robot and problem and cached) where
+they apply: backend ``"auto"`` or ``"closed_form"``, a non-sequential objective, an
+optimal straight-line distribution, every catenary settled by the kernel. Other poses
+take the numpy path, whose catenaries :func:`catenary.solve_length` solves with its own
+kernels; ``compiled=False`` runs the numpy reference throughout.
 """
 
 from __future__ import annotations
@@ -33,6 +42,7 @@ from tension_opt.backends import Backend, get_backend
 from tension_opt.problems import Objective, as_problem
 from tension_opt.solution import Status, TensionSolution, status_array
 
+from .compiled_thesis import CompiledThesis, thesis_solver
 from .coupled import CatenarySolution, CoupledSolver
 from .errors import InvalidCableError
 from .geometry import (
@@ -41,13 +51,17 @@ from .geometry import (
     cable_planes,
     equilibrium_residual,
     platform_forces,
-    taut_catenaries,
 )
 from .margin import coupled_margin
+from .solve import solve_length
+from .solve.compiled import new_result
 
-__all__ = ["InverseKinematicsResult", "inverse_kinematics"]
+__all__ = ["InverseKinematicsResult", "inverse_kinematics", "thesis_result"]
 
 FloatArray = NDArray[np.float64]
+# Arrays of a pose solved by the compiled path, copied (cheaper than building them).
+_ONE_CONVERGED = status_array(1, Status.CONVERGED)
+_NO_ITERATIONS = np.zeros(1, np.int64)
 
 
 @dataclass(frozen=True, eq=False)
@@ -148,6 +162,7 @@ def inverse_kinematics(
     tol: float = 1e-10,
     max_iter: int = 50,
     initial_tensions: ArrayLike | None = None,
+    compiled: bool = True,
     **options: Any,
 ) -> InverseKinematicsResult:
     """Unstretched cable lengths and cable forces of a batch of poses, with sag.
@@ -181,6 +196,8 @@ def inverse_kinematics(
         row is finite, even where the straight-line distribution is infeasible. Without
         it, poses whose straight-line distribution is infeasible start from the coupled
         capacity-margin search (sag can make them feasible).
+    compiled : bool
+        Thesis model: compiled kernels where they apply (Notes); False: numpy throughout.
     **options
         Passed to the backend.
 
@@ -196,11 +213,28 @@ def inverse_kinematics(
     distribution by sequential convex programming (:mod:`catenary.coupled`) until ``t``
     changes less than ``tol``. At that fixed point the catenary end forces balance the
     load exactly, within the bounds, and ``t`` is optimal for the objective among the
-    tensions with the same end-force directions.
+    tensions with the same end-force directions. The thesis model's compiled path:
+    see the module notes.
     """
     t0 = time.perf_counter()
     if model not in ("thesis", "coupled"):
         raise InvalidCableError(f'model must be "thesis" or "coupled"; got model={model!r}')
+    if compiled and model == "thesis" and np.ndim(poses) == 1:
+        result = thesis_result(thesis_solver(robot, objective, backend, options), poses,
+                               wrench, t0)
+        if result is not None:
+            return result
+    return _batch(robot, poses, model, objective, backend, wrench, initial_tensions,
+                  dict(tol=tol, max_iter=max_iter, compiled=compiled), options, t0)
+
+
+def _batch(robot: CableRobot, poses: ArrayLike, model: str, objective: Any,
+           backend: str | Backend, wrench: ArrayLike | None,
+           initial_tensions: ArrayLike | None, settings: dict[str, Any],
+           options: dict[str, Any], start: float) -> InverseKinematicsResult:
+    """:func:`inverse_kinematics` by the numpy path (``settings``: its ``tol``,
+    ``max_iter`` and ``compiled``; ``start``: the :func:`time.perf_counter` reading the
+    solve time counts from)."""
     w, EA = cable_data(robot)
     p = robot.as_poses(poses)
     planes = cable_planes(robot, p)
@@ -208,15 +242,28 @@ def inverse_kinematics(
     # Weightless cables are straight: the straight-line distribution is then also the
     # coupled solution, and the thesis convention computes its catenaries.
     if model == "coupled" and w > 0.0:
-        tensions, attempt = _coupled_start(robot, p, straight, initial_tensions, wrench,
-                                           backend, dict(options, tol=tol, max_iter=max_iter))
-        chosen = backend if isinstance(backend, Backend) else get_backend(straight.backend)
-        solution = CoupledSolver(robot, p, planes, as_problem(objective), chosen,
-                                 robot.required_wrench(p, wrench), (w, EA), tol=tol,
-                                 max_iter=max_iter, options=options).solve(tensions, attempt)
+        solution = _coupled(robot, p, planes, straight, objective, backend, wrench,
+                            initial_tensions, (w, EA), settings["tol"],
+                            settings["max_iter"], options)
     else:
-        solution = _thesis(planes, straight.tensions, straight.status, w, EA)
-    return _result(robot, p, wrench, planes, solution, model, time.perf_counter() - t0)
+        solution = _thesis(planes, straight.tensions, straight.status, w, EA,
+                           settings["compiled"])
+    return _result(robot, p, wrench, planes, solution, model, time.perf_counter() - start)
+
+
+def _coupled(robot: CableRobot, poses: FloatArray, planes: CablePlanes,
+             straight: TensionSolution, objective: Any, backend: str | Backend,
+             wrench: ArrayLike | None, initial_tensions: ArrayLike | None,
+             cable: tuple[float, float], tol: float, max_iter: int,
+             options: dict[str, Any]) -> CatenarySolution:
+    """The coupled model from the straight-line distribution ``straight`` (see
+    :func:`inverse_kinematics`); ``cable`` is ``(w, EA)``."""
+    tensions, attempt = _coupled_start(robot, poses, straight, initial_tensions, wrench,
+                                       backend, dict(options, tol=tol, max_iter=max_iter))
+    chosen = backend if isinstance(backend, Backend) else get_backend(straight.backend)
+    return CoupledSolver(robot, poses, planes, as_problem(objective), chosen,
+                         robot.required_wrench(poses, wrench), cable, tol=tol,
+                         max_iter=max_iter, options=options).solve(tensions, attempt)
 
 
 def _coupled_start(robot: CableRobot, poses: FloatArray, straight: TensionSolution,
@@ -254,9 +301,10 @@ def _coupled_start(robot: CableRobot, poses: FloatArray, straight: TensionSoluti
 
 
 def _thesis(planes: CablePlanes, tensions: FloatArray, straight_status: NDArray[np.str_],
-            w: float, EA: float) -> CatenarySolution:
+            w: float, EA: float, compiled: bool) -> CatenarySolution:
     """The thesis convention: taut catenaries with the drawing-point tensions (N, m) of
-    the poses whose straight-line distribution is optimal.
+    the poses whose straight-line distribution is optimal (``compiled``: as
+    :func:`catenary.solve_length`'s keyword).
 
     The status of a pose is ``CONVERGED`` exactly where every catenary solve converged
     (``CATENARY_FAILED`` elsewhere), or that of its straight-line distribution where
@@ -270,12 +318,43 @@ def _thesis(planes: CablePlanes, tensions: FloatArray, straight_status: NDArray[
     cat_its = np.zeros((N, m), np.int64)
     idx = np.flatnonzero(attempt)
     if idx.size:
-        c = taut_catenaries(planes.x[idx], planes.z[idx], tensions[idx], w, EA, "B")
+        c = solve_length(planes.x[idx], planes.z[idx], tensions[idx], w, EA, "B",
+                         compiled=compiled)
         cat_its[idx] += c.iterations
         status[idx[~c.converged.all(axis=1)]] = Status.CATENARY_FAILED
         H[idx], V_A[idx], V_B[idx], L0[idx] = c.H, c.V_A, c.V_B, c.L0
     return CatenarySolution(H, V_A, V_B, L0, tensions, status, np.zeros(N, np.int64),
                             cat_its)
+
+
+def thesis_result(solver: CompiledThesis | None, pose: ArrayLike, wrench: ArrayLike | None,
+                  start: float) -> InverseKinematicsResult | None:
+    """The thesis-convention result of one pose (n,) by ``solver``, with an external
+    wrench (n,) or None (N, N m), or None where the numpy path decides (no solver, see
+    :meth:`CompiledThesis.solve`; also poses or wrenches of another shape or type).
+    ``start`` is the :func:`time.perf_counter` reading the solve time counts from."""
+    if solver is None:
+        return None
+    dof = solver.robot.dof
+    try:
+        p = np.ascontiguousarray(pose, dtype=np.float64)
+        wr = None if wrench is None else np.ascontiguousarray(wrench, dtype=np.float64)
+    except (TypeError, ValueError):
+        return None
+    if p.shape != (dof,) or (wr is not None and wr.shape != (dof,)):
+        return None
+    got = solver.solve(p, wr)
+    if got is None:
+        return None
+    out, forces, residual = got
+    return new_result(
+        InverseKinematicsResult, lengths=out[0][None], straight_lengths=out[4][None],
+        tensions=out[1][None],
+        tensions_platform=out[2][None], horizontal_tensions=out[3][None],
+        platform_forces=forces[None], equilibrium_residual=np.array([residual]),
+        iterations=_NO_ITERATIONS.copy(), catenary_iterations=out[5][None].astype(np.int64),
+        status=_ONE_CONVERGED.copy(), model="thesis",
+        solve_time=time.perf_counter() - start)
 
 
 def _result(robot: CableRobot, poses: FloatArray, wrench: ArrayLike | None,

@@ -8,6 +8,14 @@
   its Newton in :mod:`catenary.solve.length_newton` and its bracketing
   fallback in :mod:`catenary.solve.length_bracket`.
 
+Both run compiled (numba) kernels (:mod:`catenary.solve.kernels`, reached through
+:mod:`catenary.solve.compiled`) for the cables those settle: the same guesses, Newton
+steps and certificate, cable by cable (over threads for large batches), at a few
+microseconds per call. The numpy implementation described below is the reference: it
+solves the cables the kernels leave (vertical, weightless, zero-tension, degenerate,
+not converged, ``end="H"``) and decides on invalid arguments; ``compiled=False`` runs
+it alone. Statuses are the same either way, values the same to rounding.
+
 Both work on nondimensional data: lengths in units of the chord and forces
 in units of the problem's force scale, both rounded to powers of two (exact,
 so the rounding is that of SI units), which keeps every product of forces in

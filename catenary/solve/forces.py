@@ -32,6 +32,7 @@ from .common import (
     selection,
     status_array,
 )
+from .compiled import all_converged, flat_arguments, load_kernels, new_result, run_cables, take
 
 __all__ = ["solve_forces", "solve_forces_flat"]
 
@@ -408,6 +409,7 @@ def solve_forces(
     *,
     rtol: float = 1e-9,
     max_iter: int = 30,
+    compiled: bool = True,
 ) -> ForcesResult:
     """End forces of cables of given unstretched length (forward problem).
 
@@ -428,6 +430,10 @@ def solve_forces(
         with quadratic convergence the result is then accurate to rounding.
     max_iter : int
         Newton iterations before the fallback takes over (and of its polish).
+    compiled : bool
+        Whether the compiled kernels (:mod:`catenary.solve.kernels`) solve the cables
+        they settle (default), the numpy path the others; False solves every cable by
+        the numpy reference. Both give the same statuses and values to rounding.
 
     Returns
     -------
@@ -449,8 +455,14 @@ def solve_forces(
     Vertical (``x <= 1e-15`` chord) and weightless (``w = 0``) cables are
     solved in closed form. A cable is reported converged only if its forces
     are finite and its spans within ``1e-8`` of the chord of ``(x, z)``;
-    otherwise ``"not_converged"`` with NaN forces (see :mod:`catenary.solve`).
+    otherwise ``"not_converged"`` with NaN forces (see :mod:`catenary.solve`). The
+    compiled kernels run the same guess, Newton and certificate per cable (in parallel
+    over large batches); the first call loads them.
     """
+    if compiled:
+        result = _compiled_forces(x, z, L0, w, EA, rtol, max_iter)
+        if result is not None:
+            return result
     shape, (xf, zf, lf, wf, ef) = prepare(x, z, L0, w, EA, "L0")
     # Overflow is expected at extreme data: the certificate checks every result.
     with np.errstate(all="ignore"):
@@ -464,3 +476,42 @@ def solve_forces(
         converged=conv.reshape(shape),
         status=status.reshape(shape),
     )
+
+
+def _compiled_forces(x: ArrayLike, z: ArrayLike, L0: ArrayLike, w: ArrayLike,
+                     EA: ArrayLike, rtol: float, max_iter: int) -> ForcesResult | None:
+    """:func:`solve_forces` through the compiled kernel, the cables it leaves by
+    :func:`solve_forces_flat`; None where the numpy path must decide for the whole call
+    (invalid data, shapes that do not broadcast, no cable)."""
+    flat = flat_arguments(x, z, L0, w, EA)
+    if flat is None:
+        return None
+    shape, n, (xf, zf, lf, wf, ef) = flat
+    kernels = load_kernels()
+    out = np.empty((3, n))
+    ints = np.empty((2, n), dtype=np.int64)
+    unsettled = run_cables("solve_forces_cables", n, xf, zf, lf, wf, ef, float(rtol),
+                           int(max_iter), out, ints)
+    if unsettled:
+        codes = ints[0]
+        if np.any(codes == kernels.INVALID):
+            return None  # the numpy checks raise the package's error
+        redo = np.flatnonzero(codes != kernels.CONVERGED)
+        lr, wr = take(lf, redo), take(wf, redo)
+        with np.errstate(all="ignore"):
+            H, V, its, conv, st = solve_forces_flat(take(xf, redo), take(zf, redo), lr, wr,
+                                                    take(ef, redo), rtol, max_iter)
+            out[0, redo], out[1, redo], out[2, redo] = H, V, V - wr * lr
+        ints[1, redo] = its
+        status = all_converged(n)
+        status[redo] = st
+        converged = np.ones(n, dtype=bool)
+        converged[redo] = conv
+    else:
+        status, converged = all_converged(n), np.ones(n, dtype=bool)
+    H, V_B, V_A, its = out[0], out[1], out[2], ints[1]
+    if len(shape) != 1:
+        H, V_B, V_A, its, converged, status = (
+            a.reshape(shape) for a in (H, V_B, V_A, its, converged, status))
+    return new_result(ForcesResult, H=H, V_A=V_A, V_B=V_B, iterations=its,
+                      converged=converged, status=status)

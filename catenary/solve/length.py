@@ -47,6 +47,7 @@ from .common import (
     selection,
     status_array,
 )
+from .compiled import all_converged, flat_arguments, load_kernels, new_result, run_cables, take
 from .length_bracket import bracket_length, end_tension
 from .length_newton import newton_with_second_guess, polish_length
 
@@ -236,6 +237,7 @@ def solve_length(
     *,
     rtol: float = 1e-9,
     max_iter: int = 30,
+    compiled: bool = True,
 ) -> LengthResult:
     """Unstretched length of cables with a prescribed tension (inverse problem).
 
@@ -256,6 +258,9 @@ def solve_length(
         Which tension is prescribed.
     rtol, max_iter
         Newton step tolerance and iteration limit before the fallback.
+    compiled : bool
+        Whether the compiled kernels (:mod:`catenary.solve.kernels`) solve the cables
+        they settle (``end`` "B" or "A"); False: the numpy reference for every cable.
 
     Returns
     -------
@@ -280,10 +285,14 @@ def solve_length(
     its span residuals below ``1e-8`` of its chord and its end tension within
     ``1e-9`` of the prescribed one; otherwise ``"not_converged"`` (or
     ``"infeasible"`` where no catenary carries the tension) with NaN values.
-    The method in detail: :mod:`catenary.solve.length`.
+    The method in detail: :mod:`catenary.solve.length`; the kernels run the same.
     """
     if end not in ("B", "A", "H"):
         raise InvalidCableError(f'end must be "B", "A" or "H"; got end={end!r}')
+    if compiled and end != "H":
+        result = _compiled_length(end, x, z, tension, w, EA, rtol, max_iter)
+        if result is not None:
+            return result
     shape, (xf, zf, tf, wf, ef) = prepare(x, z, tension, w, EA, "tension")
     # Overflow is expected at extreme data: the certificate checks every result.
     with np.errstate(all="ignore"):
@@ -298,3 +307,42 @@ def solve_length(
         status=status.reshape(shape),
         L0=L.reshape(shape),
     )
+
+
+def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
+                     w: ArrayLike, EA: ArrayLike, rtol: float, max_iter: int
+                     ) -> LengthResult | None:
+    """:func:`solve_length` for ``end`` "B" or "A" through the compiled kernel, the
+    cables it leaves by :func:`_solve_length_flat`; None where the numpy path must
+    decide for the whole call (invalid data, shapes that do not broadcast, no cable)."""
+    flat = flat_arguments(x, z, tension, w, EA)
+    if flat is None:
+        return None
+    shape, n, (xf, zf, tf, wf, ef) = flat
+    kernels = load_kernels()
+    out = np.empty((4, n))
+    ints = np.empty((2, n), dtype=np.int64)
+    unsettled = run_cables("solve_length_cables", n, end == "B", xf, zf, tf, wf, ef,
+                           float(rtol), int(max_iter), out, ints)
+    if unsettled:
+        codes = ints[0]
+        if np.any(codes == kernels.INVALID):
+            return None  # the numpy checks raise the package's error
+        redo = np.flatnonzero(codes != kernels.CONVERGED)
+        with np.errstate(all="ignore"):
+            H, V, V_A, L, its, st = _solve_length_flat(
+                end, take(xf, redo), take(zf, redo), take(tf, redo), take(wf, redo),
+                take(ef, redo), rtol, max_iter)
+        out[0, redo], out[1, redo], out[2, redo], out[3, redo] = H, V, V_A, L
+        ints[1, redo] = its
+        status = all_converged(n)
+        status[redo] = st
+        converged = status == CONVERGED
+    else:
+        status, converged = all_converged(n), np.ones(n, dtype=bool)
+    H, V_B, V_A, L0, its = out[0], out[1], out[2], out[3], ints[1]
+    if len(shape) != 1:
+        H, V_B, V_A, L0, its, converged, status = (
+            a.reshape(shape) for a in (H, V_B, V_A, L0, its, converged, status))
+    return new_result(LengthResult, H=H, V_A=V_A, V_B=V_B, iterations=its,
+                      converged=converged, status=status, L0=L0)

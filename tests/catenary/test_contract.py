@@ -39,6 +39,9 @@ import tension_opt as to
 from catenary.geometry import cable_data, cable_planes
 from tension_opt.solution import Status
 
+# Kernels compile before the watchdog times any call (see tests/conftest.py).
+pytestmark = pytest.mark.usefixtures("compiled_kernels")
+
 #: Longest a single call may take (s) before the watchdog calls it a hang.
 CALL_LIMIT = 2.0
 PACKAGE_ERRORS = (to.TensionOptError, catenary.CatenaryError)

@@ -1,0 +1,198 @@
+"""The compiled part of the sag-aware inverse kinematics of one pose in the thesis
+convention (:func:`catenary.inverse_kinematics` with ``model="thesis"``):
+:func:`thesis_pose` and :class:`CompiledThesis`, with a small cache of them
+(:func:`thesis_solver`).
+
+The straight-line distribution of the pose (a :class:`tension_opt.Distributor`) gives
+each cable's tension, imposed at its drawing point on the taut catenary through both
+ends; one compiled call then does the cable planes, the four-to-eight taut catenaries
+(:func:`catenary.solve.kernels.solve_length_one`), the platform forces and the
+equilibrium residual. A pose whose straight-line distribution is not optimal, or one
+of whose cables the kernel leaves to the numpy path (vertical cable, degenerate limit,
+Newton not converging), is not answered here: the caller runs the numpy path, so the
+statuses are the numpy path's.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+import tension_opt
+from tension_opt.errors import TensionOptError
+from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, kind_code, rotation
+from tension_opt.problems import TensionProblem, as_problem
+from tension_opt.solution import Status
+
+from .errors import CatenaryError
+from .geometry import cable_data
+from .solve.kernels import CONVERGED, solve_length_one
+
+__all__ = ["CACHE_SIZE", "CompiledThesis", "thesis_pose", "thesis_solver"]
+
+#: Distinct (robot, objective, backend, options) whose :class:`CompiledThesis` is kept.
+CACHE_SIZE = 8
+#: Backends whose :class:`tension_opt.Distributor` answers a pose as
+#: :func:`tension_opt.distribute` does, keeping no state between calls.
+STATELESS_BACKENDS = ("auto", "closed_form")
+_CACHE: dict[tuple[Any, ...], tuple[tension_opt.CableRobot, CompiledThesis]] = {}
+
+
+@njit(cache=True, error_model="numpy")
+def thesis_pose(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
+                weight: float, pose: NDArray, wrench: NDArray, tensions: NDArray,
+                w: float, inv_EA: float, out: NDArray, forces: NDArray, work: NDArray
+                ) -> tuple[bool, float]:
+    """Taut catenaries of one pose with the drawing-point ``tensions`` (m,) (N).
+
+    ``out`` (7, m) gets rows ``(L0, T_B, T_A, H, chord, iterations, V_A)`` (m, N);
+    ``forces`` (m, 3) the force of each cable on the platform (N). ``work`` holds at
+    least ``n m + 2 n`` floats. Returns ``(solved, equilibrium residual)``; not solved
+    where a cable's catenary is left to the numpy path.
+    """
+    m = anchors.shape[0]
+    n = wrench.size
+    R00, R01, R02, R10, R11, R12, R20, R21, R22 = rotation(kind, pose)
+    A = work[:n * m].reshape((n, m))
+    b = work[n * m:n * m + n]
+    total = work[n * m + n:n * m + 2 * n]
+    if geometry_into(kind, anchors, attachments, com, weight, 0.0, pose, wrench, A,
+                     b) != GEOMETRY_OK:
+        return False, np.nan
+    px, py, pz = pose[0], pose[1], pose[2]
+    if kind == 1:
+        py, pz = 0.0, pose[1]
+    elif kind == 2:
+        pz = 0.0
+    sol = work[n * m + 2 * n:n * m + 2 * n + 5]
+    for k in range(n):
+        total[k] = 0.0
+    for i in range(m):
+        a0, a1, a2 = attachments[i, 0], attachments[i, 1], attachments[i, 2]
+        r0 = R00 * a0 + R01 * a1 + R02 * a2
+        r1 = R10 * a0 + R11 * a1 + R12 * a2
+        r2 = R20 * a0 + R21 * a1 + R22 * a2
+        d0 = anchors[i, 0] - (px + r0)
+        d1 = anchors[i, 1] - (py + r1)
+        d2 = anchors[i, 2] - (pz + r2)
+        x = math.hypot(d0, d1)
+        if solve_length_one(True, x, d2, tensions[i], w, inv_EA, 1e-9, 30, sol) != CONVERGED:
+            return False, np.nan
+        H, V_B, V_A, L0 = sol[0], sol[1], sol[2], sol[3]
+        out[0, i], out[1, i], out[2, i] = L0, math.hypot(H, V_B), math.hypot(H, V_A)
+        out[3, i], out[4, i], out[5, i], out[6, i] = H, math.sqrt(x * x + d2 ** 2), sol[4], V_A
+        f0, f1, f2 = H * (d0 / x), H * (d1 / x), V_A
+        forces[i, 0], forces[i, 1], forces[i, 2] = f0, f1, f2
+        _add_wrench(kind, total, f0, f1, f2, r1 * f2 - r2 * f1, r2 * f0 - r0 * f2,
+                    r0 * f1 - r1 * f0)
+    residual = 0.0
+    for k in range(n):
+        residual += (total[k] - b[k]) ** 2
+    return True, math.sqrt(residual)
+
+
+@njit(cache=True, error_model="numpy")
+def _add_wrench(kind: int, total: NDArray, f0: float, f1: float, f2: float, m0: float,
+                m1: float, m2: float) -> None:
+    """Add the rows of a cable's wrench that the kind keeps (as ``pattern.select``)."""
+    if kind == 0:
+        total[0] += f0
+        total[1] += f1
+        total[2] += f2
+    elif kind == 1:
+        total[0] += f0
+        total[1] += f2
+    elif kind == 2:
+        total[0] += f0
+        total[1] += f1
+        total[2] += m2
+    else:
+        total[0] += f0
+        total[1] += f1
+        total[2] += f2
+        total[3] += m0
+        total[4] += m1
+        total[5] += m2
+
+
+class CompiledThesis:
+    """The thesis-convention inverse kinematics of one pose, built once per robot and
+    straight-line problem.
+
+    Parameters
+    ----------
+    robot : CableRobot
+        With cable properties (``robot.cable``) of positive weight.
+    objective, backend, **options
+        Of the straight-line distribution, as in :func:`catenary.inverse_kinematics`.
+    """
+
+    def __init__(self, robot: tension_opt.CableRobot,
+                 objective: str | TensionProblem = "min_sum", backend: str = "auto",
+                 **options: Any) -> None:
+        self.w, self.EA = cable_data(robot)
+        self.robot = robot
+        self.distributor = tension_opt.Distributor(robot, objective, backend, **options)
+        self.kind = kind_code(robot.kind)
+        self.anchors = np.ascontiguousarray(robot.anchors, dtype=float)
+        self.attachments = np.ascontiguousarray(robot.attachments, dtype=float)
+        self.com = np.ascontiguousarray(robot.com, dtype=float)
+        self.weight = robot.mass * robot.g
+        self.inv_EA = 0.0 if math.isinf(self.EA) else 1.0 / self.EA
+        self.work = robot.dof * robot.m + 2 * robot.dof + 5
+        self.no_wrench = np.zeros(robot.dof)
+
+    def solve(self, pose: NDArray, wrench: NDArray | None
+              ) -> tuple[NDArray, NDArray, float] | None:
+        """``(out, forces, residual)`` of one pose (n,) as :func:`thesis_pose` fills
+        them, with an external wrench (n,) or None; None where the numpy path decides
+        (straight-line distribution not optimal, a cable the kernel leaves, weightless
+        cables, data the distributor rejects)."""
+        if self.w <= 0.0:
+            return None
+        try:
+            straight = self.distributor(pose, wrench)
+        except TensionOptError:
+            return None  # the numpy path raises its own error, or answers
+        if straight.status != Status.OPTIMAL:
+            return None
+        m = self.robot.m
+        out, forces = np.empty((7, m)), np.empty((m, 3))
+        w = self.no_wrench if wrench is None else wrench
+        solved, residual = thesis_pose(self.kind, self.anchors, self.attachments, self.com,
+                                       self.weight, pose, w, straight.tensions, self.w,
+                                       self.inv_EA, out, forces, np.empty(self.work))
+        return (out, forces, residual) if solved else None
+
+
+def thesis_solver(robot: tension_opt.CableRobot, objective: Any, backend: Any,
+                  options: dict[str, Any]) -> CompiledThesis | None:
+    """The cached :class:`CompiledThesis` of these arguments (built on first use), or
+    None where they are not for it: a backend other than :data:`STATELESS_BACKENDS`, a
+    sequential (smoothed, rate-limited) objective, options that cannot be a cache key,
+    a robot without cable properties or arguments the distributor rejects (the numpy
+    path then raises its own error)."""
+    if not (isinstance(backend, str) and backend in STATELESS_BACKENDS):
+        return None
+    try:
+        key = (id(robot), objective, backend, tuple(sorted(options.items())))
+        hash(key)
+    except TypeError:
+        return None
+    cached = _CACHE.get(key)
+    if cached is not None and cached[0] is robot:
+        return cached[1]
+    try:
+        if as_problem(objective).is_sequential:
+            return None
+        solver = CompiledThesis(robot, objective, backend, **options)
+    except (TensionOptError, CatenaryError):
+        return None
+    while len(_CACHE) >= CACHE_SIZE:
+        _CACHE.pop(next(iter(_CACHE)))
+    _CACHE[key] = (robot, solver)
+    return solver

@@ -1,0 +1,122 @@
+"""The plumbing between the solvers' plain calls and their compiled kernels
+(:mod:`catenary.solve.kernels`): arguments as flat arrays without numpy's per-call
+broadcasting cost, the kernels loaded on first use (numba is imported only then), and
+the pieces of a result where every cable converged.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import threading
+from types import ModuleType
+from typing import TypeVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .common import CONVERGED, STATUS_DTYPE, FloatArray
+
+__all__ = ["all_converged", "flat_arguments", "load_kernels", "new_result", "run_cables", "take"]
+
+T = TypeVar("T")
+
+_KERNELS: list[ModuleType] = []
+#: Statuses of cables that all converged, copied from (grown on demand).
+_CONVERGED_ROW: list[NDArray[np.str_]] = [np.full(64, CONVERGED, dtype=STATUS_DTYPE)]
+
+
+#: One parallel launch at a time: numba's "workqueue" layer aborts the process on two
+#: at once (the serial branch of a kernel needs no lock).
+_LAUNCH = threading.Lock()
+#: Whether this process is a forked child: GNU OpenMP (numba's "omp" layer) terminates
+#: a child that launches a parallel region after its parent did, so children run serial.
+_FORKED = [False]
+os.register_at_fork(after_in_child=lambda: _FORKED.__setitem__(0, True))
+
+
+def run_cables(name: str, n: int, *args: object) -> int:
+    """Kernel ``name`` of :mod:`catenary.solve.kernels` over ``n`` cables: its parallel
+    variant (one launch at a time) from ``PARALLEL_FROM`` cables in a process that is no
+    forked child, else the serial one (which starts no threading layer)."""
+    kernels = load_kernels()
+    if n >= kernels.PARALLEL_FROM and not _FORKED[0]:
+        with _LAUNCH:
+            return getattr(kernels, f"{name}_parallel")(*args)
+    return getattr(kernels, name)(*args)
+
+
+def load_kernels() -> ModuleType:
+    """:mod:`catenary.solve.kernels`, imported on the first call (importing numba and
+    loading the machine code from its disk cache costs a fraction of a second)."""
+    if not _KERNELS:
+        from . import kernels
+
+        _KERNELS.append(kernels)
+    return _KERNELS[0]
+
+
+def flat_arguments(*args: ArrayLike) -> tuple[tuple[int, ...], int, list[FloatArray]] | None:
+    """The arguments as flat float arrays for the kernels, or None where the numpy path
+    must decide (shapes that do not broadcast, no cable at all: the numpy checks then
+    raise the package's error or return the empty result).
+
+    Returns
+    -------
+    shape : tuple of int
+        The broadcast shape ``S``.
+    n : int
+        ``prod(S)``, the number of cables.
+    flat : list of ndarray
+        One contiguous float array per argument, of ``n`` entries or of one (an
+        argument with a single value, not broadcast: the kernels read entry 0).
+    """
+    arrays = [np.asarray(a, dtype=np.float64) for a in args]
+    # Arrays of one shape and scalars (the usual call) skip numpy's broadcast_shapes,
+    # whose cost is that of solving several cables.
+    shape: tuple[int, ...] = ()
+    for a in arrays:
+        if a.shape != shape and a.shape != ():
+            if shape != ():
+                try:
+                    shape = np.broadcast_shapes(*(b.shape for b in arrays))
+                except ValueError:
+                    return None
+                break
+            shape = a.shape
+    n = math.prod(shape)
+    if n == 0:
+        return None
+    flat = []
+    for a in arrays:
+        if a.size == 1:
+            flat.append(a.reshape(1))
+        elif a.shape == shape:
+            flat.append(a.ravel())  # a view of contiguous data, else a contiguous copy
+        else:
+            flat.append(np.ascontiguousarray(np.broadcast_to(a, shape)).ravel())
+    return shape, n, flat
+
+
+def new_result(cls: type[T], **fields: object) -> T:
+    """``cls(**fields)`` for a frozen dataclass without checks of its own, skipping its
+    ``__init__`` (which sets each field through ``object.__setattr__``: a few
+    microseconds, as much as the kernel's work for a few cables)."""
+    result = cls.__new__(cls)
+    result.__dict__.update(fields)
+    return result
+
+
+def take(a: FloatArray, idx: NDArray[np.intp]) -> FloatArray:
+    """Entries ``idx`` of a flat argument of :func:`flat_arguments` (its single value
+    repeated if it has one)."""
+    return a[idx] if a.size > 1 else np.full(idx.size, a[0])
+
+
+def all_converged(n: int) -> NDArray[np.str_]:
+    """A status array of ``n`` cables, all ``"converged"`` (a fresh copy)."""
+    row = _CONVERGED_ROW[0]
+    if row.size < n:
+        row = np.full(max(n, 2 * row.size), CONVERGED, dtype=STATUS_DTYPE)
+        _CONVERGED_ROW[0] = row
+    return row[:n].copy()
