@@ -140,7 +140,7 @@ def catenary_rows() -> None:
     after = row("after: catenary.realtime.solve_length_compiled",
                 lambda: solve_length_compiled(planes_x, z, T, w, EA))
     ratio(before, after)
-    from catenary import kernels
+    from catenary.solve import kernels
 
     out, codes = np.zeros((4, 5)), np.empty(4, dtype=np.int64)
     inv = np.full(4, 1.0 / EA)

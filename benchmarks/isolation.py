@@ -16,7 +16,7 @@ from typing import Any
 from benchmarks.plan import Cell
 from benchmarks.runner import CellResult, References, base_row, run_cell, short_message
 
-__all__ = ["GRACE", "CellRunner", "Worker", "run_isolated"]
+__all__ = ["GRACE", "CellRunner", "Worker", "load_compiled_kernels", "run_isolated"]
 
 #: Extra seconds before an isolated cell that overran its time limit is killed.
 GRACE = 5.0
@@ -101,6 +101,37 @@ def _worker_loop(conn: Any, cells: Sequence[Cell], time_limit: float, run: CellR
             return
 
 
+def load_compiled_kernels() -> None:
+    """Load the compiled kernels of the plain calls into this process, once (compiling
+    them first where numba's disk cache is empty: tens of seconds).
+
+    Forked workers inherit them; a worker that had to compile them itself would spend
+    a cell's time limit on it. The calls run the serial kernels only, so no threading
+    layer starts in the parent (one that did would not survive the fork: see
+    :mod:`tension_opt.kernels.launch`).
+    """
+    if _LOADED:
+        return
+    import catenary
+    import tension_opt as to
+
+    for robot in (to.presets.algae_harvester(), to.presets.cogiro()):
+        home = robot.default_home()
+        # The closed form takes min-max with one null-space dimension only.
+        for objective in ("min_sum", "min_norm", "min_max")[:3 if robot.m - robot.dof == 1
+                                                            else 2]:
+            to.distribute(robot, home, objective, "closed_form")
+            to.Distributor(robot, objective)(home)
+        catenary.inverse_kinematics(robot, home, model="thesis")
+    for end in ("B", "A"):
+        catenary.solve_length(10.0, -2.0, 500.0, 2.0, EA=1e6, end=end)
+    catenary.solve_forces(10.0, -2.0, 10.5, 2.0, EA=1e6)
+    _LOADED.append(True)
+
+
+_LOADED: list[bool] = []
+
+
 def run_isolated(cells: Sequence[Cell], time_limit: float, grace: float = GRACE,
                  run: CellRunner = run_cell) -> Generator[tuple[Cell, CellResult], None, None]:
     """(cell, result) pairs of ``cells`` in order, each run in a forked worker process.
@@ -128,6 +159,7 @@ def run_isolated(cells: Sequence[Cell], time_limit: float, grace: float = GRACE,
         closed early or fails.
     """
     worker: Worker | None = None
+    load_compiled_kernels()
     try:
         for index, cell in enumerate(cells):
             worker = worker or Worker(cells, time_limit, run)

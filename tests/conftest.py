@@ -20,3 +20,14 @@ def snapshots() -> list[dict]:
 @pytest.fixture(scope="session")
 def thesis() -> to.CableRobot:
     return to.presets.algae_harvester()
+
+
+
+@pytest.fixture(scope="session")
+def compiled_kernels() -> None:
+    """The compiled kernels of the plain calls, loaded (or, with an empty cache,
+    compiled) once before tests that time each call: a compilation cut short by their
+    watchdog would leave numba's cache half written."""
+    from benchmarks.isolation import load_compiled_kernels
+
+    load_compiled_kernels()
