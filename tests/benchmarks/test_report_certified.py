@@ -76,7 +76,11 @@ def test_a_fresh_clone_measures_and_keeps_the_committed_rows_as_a_reference(
     assert len(store.reference()) == len(committed)  # the reference is kept whole
     text = report.write_report(tmp_path).read_text()
     assert f"run {runs['id'].iloc[0]} (this results database)" in text
-    assert "reference (imported)" in text and "This machine against the reference" in text
+    # The committed rows keep the run that measured them, where they name one.
+    theirs = committed["run"].dropna().unique() if "run" in committed else []
+    labels = [f"reference run {run}" for run in theirs] or ["reference (imported)"]
+    assert all(label in text for label in labels), labels
+    assert "This machine against the reference" in text
 
 
 def test_only_an_interrupted_run_of_the_same_invocation_resumes(
