@@ -42,6 +42,7 @@ import platform
 import sqlite3
 import sys
 import threading
+import time
 import uuid
 from collections.abc import Collection, Iterable, Iterator, Sequence
 from pathlib import Path
@@ -515,7 +516,19 @@ def _connect(path: Path) -> sqlite3.Connection:
     # Autocommit mode: transactions are explicit (see _transaction).
     conn = sqlite3.connect(path, timeout=BUSY_TIMEOUT, isolation_level=None)
     conn.execute(f"PRAGMA busy_timeout = {int(BUSY_TIMEOUT * 1000)}")
-    conn.execute("PRAGMA journal_mode = WAL")
+    # Switching to WAL needs the file to itself for a moment, and SQLite answers
+    # "locked" at once, without the busy timeout, while another process holds it.
+    deadline, delay = time.monotonic() + BUSY_TIMEOUT, 0.001
+    while True:
+        try:
+            conn.execute("PRAGMA journal_mode = WAL")
+            break
+        except sqlite3.OperationalError as exc:
+            if "locked" not in str(exc) or time.monotonic() > deadline:
+                conn.close()
+                raise
+            time.sleep(delay)
+            delay = min(2 * delay, 0.1)
     conn.execute("PRAGMA synchronous = FULL")  # a committed chunk survives a power cut
     return conn
 
