@@ -54,6 +54,7 @@ __all__ = [
     "certify_form",
     "estimate_multipliers",
     "measures",
+    "measures_reference",
     "primal_residual_of",
 ]
 
@@ -179,7 +180,21 @@ def measures(batch: ScaledBatch, x: NDArray, mult: Multipliers
              ) -> tuple[NDArray, NDArray, NDArray]:
     """Primal residual, dual residual and relative duality gap, each of shape (N,), of
     scaled solutions ``x`` (N, k) with the multipliers ``mult`` as given (put in their
-    cones first, never estimated); NaN where ``x`` has no solution."""
+    cones first, never estimated); NaN where ``x`` has no solution.
+
+    Measured by the compiled kernel :func:`tension_opt.kernels.measures.batch_measures`;
+    :func:`measures_reference` is its numpy reference."""
+    from tension_opt.kernels.measures import batch_measures
+
+    arrays = [np.ascontiguousarray(a, dtype=float) for a in (
+        batch.P, batch.c, batch.Aeq, batch.beq, batch.G, batch.h, batch.lb, batch.ub, x,
+        mult.y, mult.mu, mult.z)]
+    return batch_measures(*arrays)
+
+
+def measures_reference(batch: ScaledBatch, x: NDArray, mult: Multipliers
+                       ) -> tuple[NDArray, NDArray, NDArray]:
+    """:func:`measures` in numpy (the reference of the compiled kernel)."""
     mu, z = _cones(batch, mult)
     rows = batch.G.shape[1] > 0
     with np.errstate(over="ignore", invalid="ignore"):

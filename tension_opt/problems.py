@@ -469,8 +469,14 @@ class StandardForm:
 
     def scale(self) -> NDArray:
         """Typical tension per pose (N), used to normalise the solvers' units, shape (N,)
-        (:func:`tension_opt.nullspace.typical_tension`)."""
-        return typical_tension(self.A, self.b, self.lb)
+        (:func:`tension_opt.nullspace.typical_tension`); read-only, computed once (a
+        solve and its tie-break ask for it several times)."""
+        known = self.__dict__.get("_typical")
+        if known is None:
+            known = typical_tension(self.A, self.b, self.lb)
+            known.flags.writeable = False
+            object.__setattr__(self, "_typical", known)  # a cache, not a field
+        return known
 
     def scaling(self) -> Scaling:
         """How each pose is nondimensionalised for the solvers (see the module docstring)."""

@@ -15,14 +15,17 @@ solver's tolerance and the certificate mean the same thing.
 
 from __future__ import annotations
 
+import threading
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from tension_opt.problems import Scaling, StandardForm
+from tension_opt.problems import ROW_FLOOR, UB_SHARE, Scaling, StandardForm
 
-__all__ = ["ScaledBatch", "scaled_batch", "scaled_objective", "working_scale"]
+__all__ = ["ScaledBatch", "compiled_scaling", "scaled_batch", "scaled_objective",
+           "working_scale"]
 
 
 @dataclass
@@ -100,7 +103,7 @@ class ScaledBatch:
 def working_scale(form: StandardForm) -> NDArray:
     """Reference tension per pose (N), shape (N,), finite even where
     :meth:`StandardForm.scale` overflows (``form.scaling().tension``)."""
-    return form.scaling().tension
+    return scaled_batch(form).scale
 
 
 def scaled_objective(form: StandardForm, s: NDArray | None = None,
@@ -147,10 +150,47 @@ def _unit_rows(M: NDArray, rhs: NDArray) -> tuple[NDArray, NDArray]:
     return M * factor[..., None], rhs * factor
 
 
+# A solve asks for the scaled matrices of one form up to three times (the solver, the
+# backend's certificate, the solution's); building them costs more than a small DAQP
+# solve, so each form keeps its own. Forms are frozen and compared by identity, and the
+# cached arrays are read-only, so a cached batch always matches its form.
+_CACHE: weakref.WeakKeyDictionary[StandardForm, ScaledBatch] = weakref.WeakKeyDictionary()
+_CACHE_LOCK = threading.Lock()
+
+
 def scaled_batch(form: StandardForm) -> ScaledBatch:
-    """Scaled, lifted dense matrices of a batch (see the module docstring)."""
+    """Scaled, lifted dense matrices of a batch (see the module docstring); read-only,
+    built once per form."""
+    with _CACHE_LOCK:
+        batch = _CACHE.get(form)
+    if batch is None:
+        batch = _build(form)
+        for name in ("P", "c", "Aeq", "beq", "G", "h", "lb", "ub", "scale"):
+            getattr(batch, name).flags.writeable = False
+        with _CACHE_LOCK:
+            _CACHE[form] = batch
+    return batch
+
+
+def compiled_scaling(form: StandardForm) -> Scaling:
+    """:meth:`StandardForm.scaling` by the compiled kernel
+    (:mod:`tension_opt.kernels.scaling`; the method is its reference)."""
+    from tension_opt.kernels.scaling import batch_scaling
+
+    vmax = 0.0
+    if form.minmax is not None:
+        vmax = float(np.abs(form.minmax).max(initial=0.0)) or 1.0
+    arrays = [np.ascontiguousarray(a, dtype=float)
+              for a in (form.A, form.b, form.lb, form.ub, form.q, form.c)]
+    tension, rows, top, quadratic = batch_scaling(*arrays, vmax, UB_SHARE, ROW_FLOOR)
+    return Scaling(tension=tension, rows=rows, top=top, quadratic=quadratic,
+                   vmax=vmax or 1.0)
+
+
+def _build(form: StandardForm) -> ScaledBatch:
+    """The matrices of :func:`scaled_batch`, built afresh."""
     N, n, m = form.N, form.n, form.m
-    scaling = form.scaling()
+    scaling = compiled_scaling(form)
     s = scaling.tension
     P, c, tau, v_hat = scaled_objective(form, s, scaling)
     with np.errstate(over="ignore", invalid="ignore"):

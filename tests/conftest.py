@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import threading
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -31,3 +33,18 @@ def compiled_kernels() -> None:
     from benchmarks.isolation import load_compiled_kernels
 
     load_compiled_kernels()
+
+
+@pytest.fixture
+def in_threads() -> Callable[[Callable[[int], None], int], None]:
+    """Run ``work(k)`` for ``k`` in ``range(count)`` on ``count`` threads at once and
+    wait for them all: ``in_threads(work, count)``."""
+
+    def run(work: Callable[[int], None], count: int) -> None:
+        threads = [threading.Thread(target=work, args=(k,)) for k in range(count)]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+
+    return run

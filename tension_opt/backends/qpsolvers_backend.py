@@ -13,6 +13,7 @@ from functools import cached_property
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tension_opt.backends.base import (
     Backend,
@@ -192,8 +193,6 @@ class QpsolversBackend(Backend):
 
     def _solve_daqp(self, batch: DenseBatch, settings: dict[str, Any], warm: bool,
                     setup: float) -> RawResult:
-        import daqp
-
         t0 = time.perf_counter()
         N, k = batch.N, batch.k
         g, n = batch.G.shape[1], batch.Aeq.shape[1]
@@ -209,31 +208,22 @@ class QpsolversBackend(Backend):
         x_all, status, iters = pose_loop_result(N, k)
         lam = np.full((N, k + g + n), np.nan)
         extras: dict[str, Any] = {}
+        structs = None if warm else _native_structs(settings)
         setup += time.perf_counter() - t0
         t0 = time.perf_counter()
-        solve = daqp.solve
-        Hs, c, A, ups, lows = (list(H), list(batch.c), list(rows), list(upper), list(lower))
-        flags = np.zeros(N, dtype=int)
-        # Results go straight into arrays: holding DAQP's per-call outputs (arrays and
-        # dicts) until the end of the loop cost as much as the solves themselves.
-        x_prev = None
-        for i in range(N):
-            try:
-                if warm or settings:
-                    x, _, flag, info = solve(Hs[i], c[i], A[i], ups[i], lows[i], sense,
-                                             primal_start=x_prev if warm else None,
-                                             **settings)
-                else:  # the common case, free of keyword handling
-                    x, _, flag, info = solve(Hs[i], c[i], A[i], ups[i], lows[i], sense)
-            except Exception as error:  # a solver's failure on one pose
-                note_error(extras, i, error)
-                continue
-            flags[i] = flag
-            iters[i] = info["iterations"]
-            if flag > 0:
-                x_all[i] = x
-                lam[i] = info["lam"]
-                x_prev = x
+        if structs is not None:  # every pose in one compiled call of DAQP's C solver
+            from tension_opt.kernels.daqp_native import quadprog_batch
+
+            flags = np.zeros(N, dtype=np.int64)
+            counts = np.zeros(N, dtype=np.int64)
+            quadprog_batch(H, np.array(batch.c), rows, upper, lower, sense, x_all, lam,
+                           flags, counts, structs)
+            iters[:] = counts
+            failed = flags <= 0
+            x_all[failed], lam[failed] = np.nan, np.nan
+        else:
+            flags = self._daqp_loop(H, batch.c.copy(), rows, upper, lower, sense, settings,
+                                    warm, x_all, lam, iters, extras)
         good = flags > 0
         status[good] = Status.OPTIMAL
         for j in np.flatnonzero(~good):
@@ -244,6 +234,40 @@ class QpsolversBackend(Backend):
         duals = Multipliers(lam[:, k + g:], lam[:, k:k + g], lam[:, :k])
         return RawResult(batch.tensions(x_all), status, iters, setup, elapsed, extras=extras,
                          multipliers=duals)
+
+    @staticmethod
+    def _daqp_loop(H: NDArray, c: NDArray, rows: NDArray, upper: NDArray, lower: NDArray,
+                   sense: NDArray, settings: dict[str, Any], warm: bool, x_all: NDArray,
+                   lam: NDArray, iters: NDArray, extras: dict[str, Any]) -> NDArray:
+        """``daqp.solve`` pose by pose (warm starts, options the C path does not know);
+        returns DAQP's exit flags."""
+        import daqp
+
+        N = len(H)
+        solve = daqp.solve
+        Hs, cs, A, ups, lows = list(H), list(c), list(rows), list(upper), list(lower)
+        flags = np.zeros(N, dtype=int)
+        # Results go straight into arrays: holding DAQP's per-call outputs (arrays and
+        # dicts) until the end of the loop cost as much as the solves themselves.
+        x_prev = None
+        for i in range(N):
+            try:
+                if warm or settings:
+                    x, _, flag, info = solve(Hs[i], cs[i], A[i], ups[i], lows[i], sense,
+                                             primal_start=x_prev if warm else None,
+                                             **settings)
+                else:  # the common case, free of keyword handling
+                    x, _, flag, info = solve(Hs[i], cs[i], A[i], ups[i], lows[i], sense)
+            except Exception as error:  # a solver's failure on one pose
+                note_error(extras, i, error)
+                continue
+            flags[i] = flag
+            iters[i] = info["iterations"]
+            if flag > 0:
+                x_all[i] = x
+                lam[i] = info["lam"]
+                x_prev = x
+        return flags
 
 
 def _keep_duals(duals: Multipliers, i: int, sol: Any, batch: DenseBatch) -> None:
@@ -264,6 +288,16 @@ def _keep_duals(duals: Multipliers, i: int, sol: Any, batch: DenseBatch) -> None
             return
         parts.append(flat)
     duals.y[i], duals.mu[i], duals.z[i] = parts
+
+
+def _native_structs(settings: dict[str, Any]) -> NDArray | None:
+    """The struct array of DAQP's C solver with ``settings``
+    (:mod:`tension_opt.kernels.daqp_native`), or None where it is not available (then
+    ``daqp.solve`` runs)."""
+    from tension_opt.kernels import daqp_native
+
+    native = daqp_native.load()
+    return None if native is None else daqp_native.struct_buffer(native, settings)
 
 
 def available() -> list[str]:

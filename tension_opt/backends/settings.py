@@ -63,6 +63,10 @@ class SolverSettings:
         Name of the solver's time-limit option (s), if it has one.
     nest : str, optional
         Name of a single option that holds the others as a dict (cvxpy's SCIPY).
+    defaults : dict
+        The solver's own defaults: an option asked at its default value is not passed
+        (scipy's HiGHS wrapper checks each option it is given, at about 70 us apiece,
+        longer than a small LP's solve).
     """
 
     tolerances: dict[str, float] = field(default_factory=dict)
@@ -71,6 +75,7 @@ class SolverSettings:
     floor: float = 1e-14
     time_limit: str | None = None
     nest: str | None = None
+    defaults: dict[str, Any] = field(default_factory=dict)
 
     @property
     def high(self) -> dict[str, Any]:
@@ -83,8 +88,13 @@ class SolverSettings:
         options: dict[str, Any] = {name: fraction * goal
                                    for name, fraction in self.tolerances.items()}
         options.update(self.fixed)
+        options = {name: value for name, value in options.items()
+                   if name not in self.defaults or self.defaults[name] != value}
         return {self.nest: options} if self.nest and options else options
 
+
+#: HiGHS's own feasibility tolerances (its documentation's defaults).
+_HIGHS_DEFAULTS = {"primal_feasibility_tolerance": 1e-7, "dual_feasibility_tolerance": 1e-7}
 
 #: Settings of every solver the backends know, by lower-case solver name.
 SETTINGS: dict[str, SolverSettings] = {
@@ -109,14 +119,14 @@ SETTINGS: dict[str, SolverSettings] = {
     # HiGHS refuses feasibility tolerances below 1e-10; its simplex lands on vertices.
     "highs": SolverSettings({"primal_feasibility_tolerance": 1.0,
                              "dual_feasibility_tolerance": 1.0}, floor=1e-10,
-                            time_limit="time_limit"),
+                            time_limit="time_limit", defaults=_HIGHS_DEFAULTS),
     "scs": SolverSettings({"eps_abs": 0.1, "eps_rel": 0.1}, {"max_iters": 100000},
                           floor=1e-10, time_limit="time_limit_secs"),
     "ecos": SolverSettings({"abstol": 0.1, "reltol": 0.1, "feastol": 0.1}, floor=1e-12),
     # cvxpy's SCIPY solver takes linprog's HiGHS options wrapped in one dictionary.
     "scipy": SolverSettings({"primal_feasibility_tolerance": 1.0,
                              "dual_feasibility_tolerance": 1.0}, floor=1e-10,
-                            nest="scipy_options"),
+                            nest="scipy_options", defaults=_HIGHS_DEFAULTS),
 }
 
 #: Options that cvxpy names differently from the solver's own interface.

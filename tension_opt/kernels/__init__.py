@@ -21,6 +21,12 @@ The batch kernels allocate one work array per chunk of poses.
   of the status), one pose, a parallel batch or a sequence;
 - :mod:`tension_opt.kernels.dense_qp`: the scaled dense QP of one pose for DAQP and
   the certificate of DAQP's answer;
+- :mod:`tension_opt.kernels.daqp_native`: DAQP's C solver called from compiled code
+  (one pose, or the ``qpsolvers:daqp`` backend's batch), checked against ``daqp.solve``;
+- :mod:`tension_opt.kernels.scaling`, :mod:`tension_opt.kernels.measures`: the
+  scaling of every problem handed to a generic backend and the three measures of its
+  certificate (numpy references: ``StandardForm.scaling``,
+  :func:`tension_opt.certificate.measures_reference`);
 - :mod:`tension_opt.kernels.launch`: when a batch kernel runs in parallel (large
   batches, one launch at a time, never in a forked child of an OpenMP process).
 """

@@ -13,6 +13,11 @@ better multipliers, so that a status never claims more than the numpy path would
 
 Only quadratic objectives without min-max terms or extra rows are covered (an LP needs
 the two-stage tie-break of :class:`tension_opt.backends.base.Backend`).
+
+:func:`solve_pose` builds the QP, calls DAQP's C solver and judges its answer in one
+compiled call (:mod:`tension_opt.kernels.daqp_native`); where that is not available
+(another daqp version), :class:`DaqpPose` calls ``daqp.solve`` between the compiled
+steps, with the same answer.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from tension_opt.kernels import daqp_native
 from tension_opt.kernels.closed_form import (
     CODE_BAD_INPUT,
     CODE_FALLBACK,
@@ -33,8 +39,10 @@ from tension_opt.kernels.closed_form import (
     pose_scales,
 )
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
+from tension_opt.kernels.scaling import pose_scaling
+from tension_opt.problems import ROW_FLOOR, UB_SHARE
 
-__all__ = ["BIG", "DaqpPose", "qp_judge", "qp_problem", "qp_size", "qp_views"]
+__all__ = ["BIG", "DaqpPose", "qp_judge", "qp_problem", "qp_size", "qp_views", "solve_pose"]
 
 #: DAQP's infinity.
 BIG = 1e30
@@ -53,7 +61,7 @@ def qp_problem(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
     prev : ndarray, shape (m,)
         Previous tensions (N), used where ``has_prev``.
     work : ndarray
-        At least ``n m + n + 4 m`` floats, kept for :func:`qp_judge`.
+        At least ``n m + 2 n + 4 m`` floats, kept for :func:`qp_judge`.
     qp : ndarray, shape (qp_size(m, n),)
         DAQP's arrays end to end (:func:`qp_views`): the diagonal Hessian (m, m) (only
         its diagonal is written), ``f`` (m,), the scaled equilibrium rows (n, m), and
@@ -64,7 +72,9 @@ def qp_problem(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
     -------
     tuple
         ``(code, scale)``: code 0 (ready), ``CODE_FALLBACK`` (a degenerate pose, an
-        LP, a scale that is not finite) or ``CODE_BAD_INPUT``; the reference tension (N).
+        LP) or ``CODE_BAD_INPUT``; the reference tension (N), as
+        :meth:`~tension_opt.problems.StandardForm.scaling` gives it
+        (:func:`~tension_opt.kernels.scaling.pose_scaling`).
     """
     m, n = int(data[1]), int(data[2])
     for i in range(n):
@@ -84,11 +94,9 @@ def qp_problem(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
         return CODE_FALLBACK, np.nan
     form_terms(terms[0], terms[1], terms[3], terms[4], data[5], terms[5], prev, has_prev,
            q, c, lb, ub)
-    top = 0.0
-    for i in range(m):
-        top = max(top, q[i])
-    s, _ = pose_scales(A, b, lb)
-    if not (top > 0.0 and math.isfinite(s)):
+    rows = work[o + 4 * m:o + 4 * m + n]
+    s, top, quadratic = pose_scaling(A, b, lb, ub, q, c, 0.0, UB_SHARE, ROW_FLOOR, rows)
+    if not quadratic:
         return CODE_FALLBACK, np.nan
     for i in range(m):
         H[i, i] = q[i] / top
@@ -96,10 +104,9 @@ def qp_problem(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
         upper[i] = min(ub[i] / s, BIG)
         lower[i] = max(lb[i] / s, -BIG)
     for k in range(n):
-        factor = _row_factor(A, k)
         for i in range(m):
-            Ad[k, i] = A[k, i] * factor
-        upper[m + k] = lower[m + k] = b[k] * factor / s
+            Ad[k, i] = A[k, i] * rows[k]
+        upper[m + k] = lower[m + k] = b[k] * rows[k] / s
     return 0, s
 
 
@@ -116,16 +123,6 @@ def qp_views(qp: NDArray, m: int, n: int) -> tuple[NDArray, NDArray, NDArray, ND
     o = m * m
     return (qp[:o].reshape((m, m)), qp[o:o + m], qp[o + m:o + m + n * m].reshape((n, m)),
             qp[o + m + n * m:o + 2 * m + n * m + n], qp[o + 2 * m + n * m + n:])
-
-
-@njit(cache=True, error_model="numpy")
-def _row_factor(A: NDArray, k: int) -> float:
-    """``1 / ||A_k||`` (1 for a zero or overflowing row), as ``StandardForm.scaling``."""
-    norm = 0.0
-    for i in range(A.shape[1]):
-        norm += A[k, i] * A[k, i]
-    norm = math.sqrt(norm)
-    return 1.0 / norm if norm > 0.0 and math.isfinite(norm) else 1.0
 
 
 @njit(cache=True, error_model="numpy")
@@ -183,6 +180,55 @@ def qp_judge(data: NDArray, work: NDArray, qp: NDArray, x: NDArray, lam: NDArray
     return CODE_FALLBACK, res
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def solve_pose(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray, has_prev: bool,
+               target: float, T: NDArray, floats: NDArray, sense: NDArray, structs: NDArray,
+               warm: bool) -> tuple[int, float, int]:
+    """One pose through DAQP's C solver in one compiled call: :func:`qp_problem`,
+    ``daqp_quadprog`` (:func:`~tension_opt.kernels.daqp_native.quadprog`), and
+    :func:`qp_judge`.
+
+    Parameters
+    ----------
+    data, pose, wrench, prev, has_prev
+        As :func:`qp_problem`.
+    target : float
+        Accuracy target of the certificate (:func:`qp_judge`).
+    T : ndarray, shape (m,)
+        The tensions (N), written.
+    floats : ndarray
+        DAQP's arrays (``qp_size(m, n)`` floats, :func:`qp_views`), its solution (m,)
+        and multipliers (m + n,), then the work space (:func:`qp_problem`), end to end
+        (one argument for all three, so that calling costs little).
+    sense : ndarray of int32, shape (m + n,)
+        DAQP's constraint types: the working set to start from, then (with ``warm``)
+        the bounds active at this answer; cleared after a failed solve.
+    structs : ndarray of int64
+        :func:`~tension_opt.kernels.daqp_native.struct_buffer`'s array.
+    warm : bool
+        Whether the next pose starts from this one's active bounds.
+
+    Returns
+    -------
+    tuple
+        ``(code, residual, iterations)``: as :meth:`DaqpPose.solve`, and DAQP's
+        iterations (-1 when DAQP was not called).
+    """
+    m, n = int(data[1]), int(data[2])
+    size = qp_size(m, n)
+    qp, x, lam = floats[:size], floats[size:size + m], floats[size + m:size + 2 * m + n]
+    work = floats[size + 2 * m + n:]
+    code, s = qp_problem(data, pose, wrench, prev, has_prev, work, qp)
+    if code:
+        return code, np.nan, -1
+    H, f, Ad, upper, lower = qp_views(qp, m, n)
+    flag, iterations = daqp_native.quadprog(H, f, Ad, upper, lower, sense, x, lam, structs)
+    if flag <= 0:  # infeasible, unbounded, iteration cap: the numpy path reports it
+        sense[:m] = 0  # and the next pose starts cold
+        return CODE_FALLBACK, np.nan, iterations
+    code, res = qp_judge(data, work, qp, x, lam, s, target, T, sense, warm)
+    return code, res, iterations
+
 
 class DaqpPose:
     """One thread's DAQP workspace for the poses of one problem: DAQP's arrays (views
@@ -190,9 +236,11 @@ class DaqpPose:
     constraint types, in which the bounds active at the last answer mark the working
     set DAQP starts the next pose from (unless ``warm`` is False).
 
-    ``daqp.solve`` is called as the ``qpsolvers:daqp`` backend calls it (a
-    ``daqp.Model`` updated per pose cost more here: its update alone took most of a
-    solve).
+    DAQP's C solver is called from the compiled :func:`solve_pose` when
+    :func:`tension_opt.kernels.daqp_native.load` finds it (with its result arrays and
+    structs kept here); otherwise ``daqp.solve`` is called as the ``qpsolvers:daqp``
+    backend calls it (a ``daqp.Model`` updated per pose cost more here: its update alone
+    took most of a solve). Both give the same answer, bit for bit.
 
     Parameters
     ----------
@@ -204,26 +252,47 @@ class DaqpPose:
         Whether to start each pose from the previous pose's active set.
     work : int
         Floats of work space (:func:`tension_opt.kernels.closed_form.work_size`).
+
+    Attributes
+    ----------
+    iterations : int
+        DAQP's iterations on the last pose it solved.
+    native : bool
+        Whether DAQP's C solver is called from compiled code.
     """
 
     def __init__(self, m: int, n: int, settings: dict[str, float], warm: bool,
                  work: int) -> None:
-        import daqp
-
-        self.qp = np.zeros(qp_size(m, n))
+        size = qp_size(m, n)
+        # DAQP's arrays, its solution and multipliers, the work space (solve_pose).
+        self.floats = np.zeros(size + 2 * m + n + work)
+        self.qp, self.work = self.floats[:size], self.floats[size + 2 * m + n:]
         self.H, self.f, self.Ad, self.upper, self.lower = qp_views(self.qp, m, n)
         self.sense = np.zeros(m + n, dtype=np.intc)
         self.sense[m:] = 5  # equality rows
-        self.work = np.empty(work)
         self.settings = dict(settings)
         self.warm = warm
         self.iterations = 0
-        self._solve: Any = daqp.solve
+        c_solver = daqp_native.load()
+        self._structs = None if c_solver is None else daqp_native.struct_buffer(
+            c_solver, self.settings)
+        self.native = self._structs is not None
+        if not self.native:
+            import daqp
+
+            self._solve: Any = daqp.solve
 
     def solve(self, data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
               has_prev: bool, target: float, T: NDArray) -> tuple[int, float]:
         """Tensions of one pose written to ``T`` (m,); returns ``(code, residual)`` with
         code 0 (certified optimal), ``CODE_FALLBACK`` or ``CODE_BAD_INPUT``."""
+        if self._structs is not None:
+            code, res, iterations = solve_pose(data, pose, wrench, prev, has_prev, target, T,
+                                               self.floats, self.sense, self._structs,
+                                               self.warm)
+            if iterations >= 0:
+                self.iterations = iterations
+            return code, res
         code, s = qp_problem(data, pose, wrench, prev, has_prev, self.work, self.qp)
         if code:
             return code, np.nan

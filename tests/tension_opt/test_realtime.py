@@ -263,7 +263,7 @@ def test_daqp_path_on_the_study_robot_and_cogiro_with_a_stream():
             np.testing.assert_allclose(row.tensions, reference.tensions[k], rtol=1e-7)
 
 
-def test_one_instance_shared_by_threads_answers_as_alone():
+def test_one_instance_shared_by_threads_answers_as_alone(in_threads):
     robot = presets.cogiro()
     p = poses_of(robot, 7, 200)
     solver = to.Distributor(robot, "min_norm")
@@ -274,11 +274,7 @@ def test_one_instance_shared_by_threads_answers_as_alone():
         for i in range(len(p)):
             out[k, i] = solver(p[i]).tensions
 
-    threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]
-    for thread in threads:
-        thread.start()
-    for thread in threads:
-        thread.join()
+    in_threads(work, 4)
     for k in range(4):
         np.testing.assert_allclose(out[k], expected, rtol=REL, atol=REL * 1e4)
 

@@ -1,0 +1,126 @@
+"""How each pose is nondimensionalised for the solvers, compiled.
+
+The reference is :meth:`tension_opt.problems.StandardForm.scaling` (see
+:mod:`tension_opt.problems` for the scaling itself): the reference tension of a pose,
+its equilibrium rows' factors, the size of its objective. In numpy it takes some
+thirty small array operations, longer than a small DAQP solve; this kernel does it in
+one pass per pose, with the same guards (norms measured without overflow, a finite
+stand-in where the reference tension overflows, the row floor and the upper-bound
+share), so both agree to rounding.
+
+:func:`pose_scaling` is one pose (also used by the real-time DAQP path,
+:mod:`tension_opt.kernels.dense_qp`); :func:`batch_scaling` runs it over a batch.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+__all__ = ["batch_scaling", "pose_scaling", "safe_norm_of"]
+
+
+@njit(cache=True, error_model="numpy")
+def safe_norm_of(x: NDArray) -> float:
+    """Euclidean norm of a vector without overflow or underflow of the squares (the
+    entries are divided by the largest magnitude first); inf or NaN for a non-finite
+    entry, as :func:`tension_opt.nullspace.safe_norm`."""
+    top = 0.0
+    for v in x:
+        a = abs(v)
+        if not a <= top:  # NaN propagates
+            top = a
+    if top == 0.0 or not math.isfinite(top):
+        return top
+    total = 0.0
+    for v in x:
+        r = v / top
+        total += r * r
+    return top * math.sqrt(total)
+
+
+@njit(cache=True, error_model="numpy")
+def pose_scaling(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
+                 vmax: float, ub_share: float, row_floor: float, rows: NDArray
+                 ) -> tuple[float, float, bool]:
+    """Scaling of one pose, as :meth:`~tension_opt.problems.StandardForm.scaling`.
+
+    Parameters
+    ----------
+    A : ndarray, shape (n, m)
+    b : ndarray, shape (n,)
+    lb, ub, q, c : ndarray, shape (m,)
+        Bounds (N), Hessian diagonal and cost of the form.
+    vmax : float
+        Largest min-max weight (0 without a min-max term).
+    ub_share, row_floor : float
+        :data:`~tension_opt.problems.UB_SHARE`, :data:`~tension_opt.problems.ROW_FLOOR`.
+    rows : ndarray, shape (n,)
+        Written: the factors of the equilibrium rows.
+
+    Returns
+    -------
+    tuple
+        ``(tension, top, quadratic)``: the reference tension (N), the objective's
+        largest Hessian entry or cost, and whether the objective is quadratic.
+    """
+    n, m = A.shape
+    col = 0.0
+    for j in range(m):
+        col = max(col, safe_norm_of(A[:, j]))
+    top_lb = 0.0
+    top_ub = 0.0
+    for i in range(m):
+        if math.isfinite(lb[i]):
+            top_lb = max(top_lb, abs(lb[i]))
+        if math.isfinite(ub[i]):
+            top_ub = max(top_ub, abs(ub[i]))
+    s = max(max(safe_norm_of(b) / max(col, 1e-300), top_lb), 1e-12)
+    if not math.isfinite(s):  # a wrench near 1e300 N: a finite stand-in
+        big = 0.0
+        for k in range(n):
+            big = max(big, abs(b[k]))
+        s = max(max(big, top_lb), 1e-12)
+    s = max(s, ub_share * top_ub)
+    longest = 0.0
+    for k in range(n):
+        norm = 0.0
+        for i in range(m):
+            norm += A[k, i] * A[k, i]
+        rows[k] = math.sqrt(norm)  # inf where the squares overflow, as numpy's norm
+        longest = max(longest, rows[k])
+    floor = row_floor * longest
+    for k in range(n):
+        size = max(rows[k], floor)
+        rows[k] = 1.0 / size if size > 0.0 and math.isfinite(size) else 1.0
+    quadratic = 0.0
+    linear = 0.0
+    for i in range(m):
+        quadratic = max(quadratic, q[i])
+        linear = max(linear, abs(c[i]))
+    if vmax > 0.0:
+        linear = max(linear, vmax)
+    if quadratic > 0.0:
+        return s, quadratic, True
+    return s, linear if linear > 0.0 else 1.0, False
+
+
+@njit(cache=True, error_model="numpy")
+def batch_scaling(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
+                  vmax: float, ub_share: float, row_floor: float
+                  ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """:func:`pose_scaling` of every pose of a batch (A (N, n, m), b (N, n), the rest
+    (N, m)); returns ``tension`` (N,), ``rows`` (N, n), ``top`` (N,), ``quadratic``
+    (N,)."""
+    N, n, _ = A.shape
+    tension = np.empty(N)
+    rows = np.empty((N, n))
+    top = np.empty(N)
+    quadratic = np.empty(N, dtype=np.bool_)
+    for p in range(N):
+        tension[p], top[p], quadratic[p] = pose_scaling(A[p], b[p], lb[p], ub[p], q[p], c[p],
+                                                        vmax, ub_share, row_floor, rows[p])
+    return tension, rows, top, quadratic

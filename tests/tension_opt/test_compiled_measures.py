@@ -1,0 +1,73 @@
+"""The compiled certificate measures against their numpy reference."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import tension_opt as to
+from tension_opt.certificate import Multipliers, certify, measures, measures_reference
+from tension_opt.problems import StandardForm, as_problem
+from tension_opt.sampling import random_feasible_poses
+from tension_opt.scaled import scaled_batch
+
+
+def _assert_same_measures(batch, x, mult) -> None:
+    got, want = measures(batch, x, mult), measures_reference(batch, x, mult)
+    # The gap is a difference of terms of order one: rounding is judged on their size.
+    for name, a, b in zip(("primal", "dual", "gap"), got, want, strict=True):
+        np.testing.assert_array_equal(np.isnan(a), np.isnan(b), err_msg=name)
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-13, err_msg=name)
+
+
+@settings(max_examples=80, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 5), extra=st.integers(1, 3),
+       rows=st.integers(0, 3), minmax=st.booleans(), quadratic=st.booleans(),
+       holes=st.sampled_from(["none", "x", "multipliers"]))
+def test_the_compiled_measures_agree_with_the_numpy_reference(
+        seed: int, n: int, extra: int, rows: int, minmax: bool, quadratic: bool,
+        holes: str) -> None:
+    """Random scaled batches with extra rows, a min-max epigraph, infinite bounds,
+    multipliers of either sign (the cones clip them), unsolved poses and unknown
+    multipliers."""
+    rng = np.random.default_rng(seed)
+    N, m = 6, n + extra
+    A = rng.normal(size=(N, n, m))
+    b = rng.normal(size=(N, n))
+    lb = np.where(rng.random((N, m)) < 0.7, rng.uniform(-1, 1, (N, m)), -np.inf)
+    ub = np.where(rng.random((N, m)) < 0.5, rng.uniform(2, 5, (N, m)), np.inf)
+    q = rng.uniform(0.1, 2.0, (N, m)) if quadratic else np.zeros((N, m))
+    G = rng.normal(size=(N, rows, m)) if rows else None
+    h = rng.normal(size=(N, rows)) if rows else None
+    form = StandardForm(A, b, lb, ub, q, rng.normal(size=(N, m)),
+                        rng.uniform(0.5, 2.0, m) if minmax else None, None, None, G, h)
+    batch = scaled_batch(form)
+    x = rng.normal(size=(N, batch.k))
+    mult = Multipliers(rng.normal(size=(N, batch.Aeq.shape[1])),
+                       rng.normal(size=(N, batch.G.shape[1])), rng.normal(size=(N, batch.k)))
+    if holes == "x":
+        x[1] = np.nan
+        x[2, 0] = np.inf
+    elif holes == "multipliers":
+        mult.y[3, 0] = np.nan
+        mult.z[4, -1] = np.nan
+        if mult.mu.shape[1]:
+            mult.mu[5, 0] = np.nan
+    _assert_same_measures(batch, x, mult)
+
+
+@pytest.mark.parametrize("objective", ["min_sum", "min_norm", "min_max"])
+def test_the_compiled_measures_agree_on_solved_study_poses(objective: str) -> None:
+    """On the backend's own answers, where the measures are near zero."""
+    robot = to.presets.algae_harvester()
+    poses = random_feasible_poses(robot, 40, seed=5)
+    A, b = robot.equilibrium(poses)
+    form = as_problem(objective).standard_form_from(robot, A, b)
+    raw = to.get_backend("qpsolvers:daqp").solve_stage(form)
+    batch = scaled_batch(form)
+    x = batch.lift(raw.tensions)
+    full = certify(batch, x, raw.multipliers).multipliers
+    _assert_same_measures(batch, x, full)
+    assert (measures(batch, x, full)[0] <= 1e-7).all()
