@@ -1,9 +1,11 @@
 """Latency of single calls and throughput of large batches, before and after the
 compiled real-time path: ``python -m benchmarks.bench_latency``.
 
-Each row times the plain numpy call as it is ("before"), the compiled path
-(:class:`tension_opt.Distributor`, :mod:`tension_opt.kernels`, :mod:`catenary.kernels`,
-:class:`catenary.realtime_ik.ThesisIK`; "after") and raw baselines (the DAQP call on
+Each row times the numpy reference of a call ("before": the plain call as it was
+before the compiled path, kept as ``compiled=False``), the compiled path
+(:class:`tension_opt.Distributor`, the plain calls on :mod:`tension_opt.kernels` and
+:mod:`catenary.solve.kernels`, :class:`catenary.realtime_ik.ThesisIK`,
+:class:`catenary.realtime_coupled.CoupledIK`; "after") and raw baselines (the DAQP call on
 the same data, plain numpy arithmetic), with p50 and p99 over many calls. Single calls
 are timed in CPU time of the calling thread (``time.thread_time_ns``), so that other
 load on a shared machine counts less; the timer's own cost (about 1 us: the clock is a
@@ -29,6 +31,7 @@ import catenary
 import tension_opt as to
 from catenary.realtime import PARALLEL_FROM, solve_forces_compiled, solve_length_compiled
 from tension_opt import presets
+from tension_opt.backends.closed_form import ClosedFormBackend
 
 __all__ = ["main"]
 
@@ -69,11 +72,14 @@ def ratio(before: tuple[float, float], after: tuple[float, float]) -> None:
 def single_pose_rows() -> None:
     """Rows 1-4 of the table: one pose through distribute, the DAQP backend, geometry."""
     study, cogiro = presets.algae_harvester(), presets.cogiro()
+    numpy_closed = ClosedFormBackend(compiled=False)
     for robot, name in ((study, "study robot"), (cogiro, "CoGiRo")):
         pose = robot.default_home()
         print(f"distribute({name}, one pose, 'min_norm', 'closed_form')")
-        before = row("before: tension_opt.distribute",
-                     lambda r=robot, p=pose: to.distribute(r, p, "min_norm", "closed_form"))
+        before = row("before: distribute, numpy closed form (compiled=False)",
+                     lambda r=robot, p=pose: to.distribute(r, p, "min_norm", numpy_closed))
+        row("plain call: tension_opt.distribute (compiled)",
+            lambda r=robot, p=pose: to.distribute(r, p, "min_norm", "closed_form"))
         solver = to.Distributor(robot, "min_norm", "closed_form")
         after = row("after: Distributor", lambda s=solver, p=pose: s(p))
         ratio(before, after)
@@ -83,7 +89,7 @@ def single_pose_rows() -> None:
         before = row("before: tension_opt.distribute", lambda r=robot, p=pose: to.distribute(
             r, p, "min_norm", "qpsolvers:daqp"))
         solver = to.Distributor(robot, "min_norm", "qpsolvers:daqp")
-        after = row("after: Distributor (compiled QP + daqp.solve + certificate)",
+        after = row("after: Distributor (compiled QP, DAQP, certificate)",
                     lambda s=solver, p=pose: s(p))
         ratio(before, after)
         raw = raw_daqp_rows(solver, pose)
@@ -135,10 +141,12 @@ def catenary_rows() -> None:
     T = np.array([3000.0, 2500.0, 4000.0, 3500.0])
     w, EA = robot.cable.weight_per_length(robot.g), robot.cable.EA  # type: ignore[union-attr]
     print("catenary.solve_length, 4 cables")
-    before = row("before: catenary.solve_length",
-                 lambda: catenary.solve_length(planes_x, z, T, w, EA))
-    after = row("after: catenary.realtime.solve_length_compiled",
-                lambda: solve_length_compiled(planes_x, z, T, w, EA))
+    before = row("before: catenary.solve_length(compiled=False)",
+                 lambda: catenary.solve_length(planes_x, z, T, w, EA, compiled=False))
+    after = row("after: catenary.solve_length (compiled)",
+                lambda: catenary.solve_length(planes_x, z, T, w, EA))
+    row("compiled, no result object: catenary.realtime.solve_length_compiled",
+        lambda: solve_length_compiled(planes_x, z, T, w, EA))
     ratio(before, after)
     from catenary.solve import kernels
 
@@ -149,10 +157,12 @@ def catenary_rows() -> None:
         solve_length_serial(True, planes_x, z, T, ws, inv, 1e-9, 30, out, codes))
     L0 = catenary.solve_length(planes_x, z, T, w, EA).L0
     print("catenary.solve_forces, 4 cables")
-    before = row("before: catenary.solve_forces",
-                 lambda: catenary.solve_forces(planes_x, z, L0, w, EA))
-    after = row("after: catenary.realtime.solve_forces_compiled",
-                lambda: solve_forces_compiled(planes_x, z, L0, w, EA))
+    before = row("before: catenary.solve_forces(compiled=False)",
+                 lambda: catenary.solve_forces(planes_x, z, L0, w, EA, compiled=False))
+    after = row("after: catenary.solve_forces (compiled)",
+                lambda: catenary.solve_forces(planes_x, z, L0, w, EA))
+    row("compiled, no result object: catenary.realtime.solve_forces_compiled",
+        lambda: solve_forces_compiled(planes_x, z, L0, w, EA))
     ratio(before, after)
     out4 = np.zeros((4, 4))
     row("kernel alone: catenary.kernels.solve_forces_batch (serial)", lambda: kernels.
@@ -161,14 +171,23 @@ def catenary_rows() -> None:
     from catenary.realtime_ik import ThesisIK
 
     print("catenary.inverse_kinematics(model='thesis'), one pose")
-    before = row("before: catenary.inverse_kinematics",
-                 lambda: catenary.inverse_kinematics(robot, pose, model="thesis"))
+    before = row("before: catenary.inverse_kinematics(compiled=False)",
+                 lambda: catenary.inverse_kinematics(robot, pose, model="thesis",
+                                                     compiled=False))
+    row("plain call: catenary.inverse_kinematics (compiled)",
+        lambda: catenary.inverse_kinematics(robot, pose, model="thesis"))
     ik = ThesisIK(robot)
     after = row("after: catenary.realtime_ik.ThesisIK", lambda: ik(pose))
     ratio(before, after)
+    from catenary.realtime_coupled import CoupledIK
+
     print("catenary.inverse_kinematics(model='coupled'), one pose")
-    row("before (no compiled path yet)",
-        lambda: catenary.inverse_kinematics(robot, pose, model="coupled"))
+    before = row("before: catenary.inverse_kinematics",
+                 lambda: catenary.inverse_kinematics(robot, pose, model="coupled"))
+    coupled = CoupledIK(robot)
+    after = row("after: catenary.realtime_coupled.CoupledIK (warm stream)",
+                lambda: coupled(pose))
+    ratio(before, after)
 
 
 def batch_rows(count: int) -> None:
@@ -189,9 +208,14 @@ def batch_rows(count: int) -> None:
     print(f"closed-form min-sum over {count} poses (box: {100 * (1 - share):.0f} % infeasible)")
     for label, poses in (("feasible", feasible), ("infeasible", infeasible)):
         t0 = time.perf_counter()
-        to.distribute(robot, poses, "min_sum", "closed_form")
+        to.distribute(robot, poses, "min_sum", ClosedFormBackend(compiled=False))
         before = (time.perf_counter() - t0) / count * 1e9
-        print(f"  {label:<11s} before: distribute {before:10.1f} ns/pose")
+        print(f"  {label:<11s} before: distribute, numpy closed form {before:10.1f} ns/pose")
+        t0 = time.perf_counter()
+        to.distribute(robot, poses, "min_sum", "closed_form")
+        plain = (time.perf_counter() - t0) / count * 1e9
+        print(f"  {label:<11s} plain call: distribute (compiled) {plain:10.1f} ns/pose  "
+              f"({before / plain:.1f}x)")
         for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
             numba.set_num_threads(threads)
             solver(poses[:5000])
@@ -206,15 +230,20 @@ def batch_rows(count: int) -> None:
     T = rng.uniform(500.0, 5000.0, count)
     w = robot.cable.weight_per_length(robot.g)  # type: ignore[union-attr]
     print(f"catenary.solve_length over {count} cables")
+    EA = robot.cable.EA  # type: ignore[union-attr]
     t0 = time.perf_counter()
-    catenary.solve_length(x, zc, T, w, robot.cable.EA)  # type: ignore[union-attr]
+    catenary.solve_length(x, zc, T, w, EA, compiled=False)
     before = (time.perf_counter() - t0) / count * 1e9
+    t0 = time.perf_counter()
+    catenary.solve_length(x, zc, T, w, EA)
+    plain = (time.perf_counter() - t0) / count * 1e9
     warm = PARALLEL_FROM + 1  # loads the parallel kernel before timing it
     solve_length_compiled(x[:warm], zc[:warm], T[:warm], w, 1e7)
     t0 = time.perf_counter()
-    solve_length_compiled(x, zc, T, w, robot.cable.EA)  # type: ignore[union-attr]
+    solve_length_compiled(x, zc, T, w, EA)
     after = (time.perf_counter() - t0) / count * 1e9
-    print(f"  before {before:10.1f} ns/cable   after {after:10.1f} ns/cable "
+    print(f"  before (compiled=False) {before:10.1f} ns/cable   plain call {plain:10.1f} "
+          f"ns/cable ({before / plain:.1f}x)   solve_length_compiled {after:10.1f} ns/cable "
           f"({before / after:.1f}x)")
 
 
@@ -223,6 +252,7 @@ import time
 t0 = time.perf_counter()
 import numpy as np, tension_opt as to
 from tension_opt import presets
+from tension_opt.backends.closed_form import ClosedFormBackend
 robot = presets.algae_harvester()
 solver = to.Distributor(robot, "min_sum", "closed_form")
 t1 = time.perf_counter()

@@ -115,6 +115,7 @@ def load_compiled_kernels() -> None:
     import catenary
     import tension_opt as to
 
+    available = set(to.available_backends())
     for robot in (to.presets.algae_harvester(), to.presets.cogiro()):
         home = robot.default_home()
         # The closed form takes min-max with one null-space dimension only.
@@ -123,6 +124,12 @@ def load_compiled_kernels() -> None:
             to.distribute(robot, home, objective, "closed_form")
             to.Distributor(robot, objective)(home)
         catenary.inverse_kinematics(robot, home, model="thesis")
+        # The generic backends' scaling and certificate kernels (and DAQP's C path).
+        generic = [b for b in ("scipy:highs", "qpsolvers:daqp") if b in available]
+        for backend in generic:
+            to.distribute(robot, home, "min_sum", backend)
+        if "qpsolvers:daqp" in available:
+            to.Distributor(robot, "min_norm", "qpsolvers:daqp")(home)
     for end in ("B", "A"):
         catenary.solve_length(10.0, -2.0, 500.0, 2.0, EA=1e6, end=end)
     catenary.solve_forces(10.0, -2.0, 10.5, 2.0, EA=1e6)
