@@ -53,6 +53,7 @@ __all__ = [
     "certify",
     "certify_form",
     "estimate_multipliers",
+    "estimate_multipliers_reference",
     "measures",
     "measures_reference",
     "primal_residual_of",
@@ -238,7 +239,28 @@ def _distances(batch: ScaledBatch, x: NDArray) -> tuple[NDArray, NDArray]:
 
 
 def estimate_multipliers(batch: ScaledBatch, x: NDArray) -> Multipliers:
-    """Multipliers of ``x`` (N, k) by the cheap dual solve (see the module docstring).
+    """Multipliers of ``x`` (N, k) by the cheap dual solve (see the module docstring and
+    :func:`estimate_multipliers_reference`), by the compiled kernel
+    :func:`tension_opt.kernels.multipliers.batch_estimate`; NaN rows where ``x`` has no
+    solution."""
+    from tension_opt.kernels.multipliers import batch_estimate
+
+    out = Multipliers.unknown(batch)
+    solved = np.isfinite(x).all(axis=1)
+    if not solved.any():
+        return out
+    every = bool(solved.all())
+    idx = slice(None) if every else np.flatnonzero(solved)
+    sub = batch if every else batch.subset(idx)
+    arrays = [np.ascontiguousarray(a, dtype=float)
+              for a in (sub.P, sub.c, sub.Aeq, sub.G, sub.h, sub.lb, sub.ub, x[idx])]
+    out.put(idx, Multipliers(*batch_estimate(*arrays, _RIDGE)))
+    return out
+
+
+def estimate_multipliers_reference(batch: ScaledBatch, x: NDArray) -> Multipliers:
+    """Multipliers of ``x`` (N, k) by the cheap dual solve, in numpy (the reference of
+    :func:`estimate_multipliers`).
 
     Minimises ``||r||^2 + sum_i (z_i d_i)^2 + sum_j (mu_j e_j)^2`` over ``y``, ``mu``,
     ``z``, with ``r`` the stationarity residual, ``d_i`` the distance of ``x_i`` to its

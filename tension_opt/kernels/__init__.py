@@ -23,10 +23,12 @@ The batch kernels allocate one work array per chunk of poses.
   the certificate of DAQP's answer;
 - :mod:`tension_opt.kernels.daqp_native`: DAQP's C solver called from compiled code
   (one pose, or the ``qpsolvers:daqp`` backend's batch), checked against ``daqp.solve``;
-- :mod:`tension_opt.kernels.scaling`, :mod:`tension_opt.kernels.measures`: the
-  scaling of every problem handed to a generic backend and the three measures of its
-  certificate (numpy references: ``StandardForm.scaling``,
-  :func:`tension_opt.certificate.measures_reference`);
+- :mod:`tension_opt.kernels.scaling`, :mod:`tension_opt.kernels.measures`,
+  :mod:`tension_opt.kernels.multipliers`: the scaling of every problem handed to a
+  generic backend, the three measures of its certificate and the cheap dual solve
+  (numpy references: ``StandardForm.scaling``,
+  :func:`tension_opt.certificate.measures_reference`,
+  :func:`tension_opt.certificate.estimate_multipliers_reference`);
 - :mod:`tension_opt.kernels.launch`: when a batch kernel runs in parallel (large
   batches, one launch at a time, never in a forked child of an OpenMP process).
 """

@@ -1,0 +1,140 @@
+"""The cheap dual solve of the certificate, compiled.
+
+The reference is :func:`tension_opt.certificate.estimate_multipliers_reference` (the
+fit itself is described there): per pose, a weighted least-squares fit of
+stationarity in the multipliers of the equations and rows, ``z`` eliminated in closed
+form. numpy solves it with a batched LAPACK call on (N, r, r) arrays built by several
+broadcasts, which takes longer than the closed form it certifies; this kernel builds
+and solves each pose's small system in place (Gaussian elimination with partial
+pivoting, as LAPACK's ``gesv`` does for matrices this small), so both agree to
+rounding.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+__all__ = ["batch_estimate", "solve_small"]
+
+#: Largest finite double (``np.nan_to_num``'s stand-in for an infinite multiplier).
+_HUGE = np.finfo(np.float64).max
+
+
+@njit(cache=True, error_model="numpy")
+def solve_small(H: NDArray, u: NDArray) -> bool:
+    """Solve ``H v = u`` in place (``u`` becomes ``v``; ``H`` is overwritten) by
+    Gaussian elimination with partial pivoting; False for a zero pivot."""
+    r = H.shape[0]
+    for col in range(r):
+        pivot = col
+        for row in range(col + 1, r):
+            if abs(H[row, col]) > abs(H[pivot, col]):
+                pivot = row
+        if H[pivot, col] == 0.0 or not math.isfinite(H[pivot, col]):
+            return False
+        if pivot != col:
+            for j in range(r):
+                H[col, j], H[pivot, j] = H[pivot, j], H[col, j]
+            u[col], u[pivot] = u[pivot], u[col]
+        for row in range(col + 1, r):
+            factor = H[row, col] / H[col, col]
+            if factor != 0.0:
+                for j in range(col, r):
+                    H[row, j] -= factor * H[col, j]
+                u[row] -= factor * u[col]
+    for col in range(r - 1, -1, -1):
+        total = u[col]
+        for j in range(col + 1, r):
+            total -= H[col, j] * u[j]
+        u[col] = total / H[col, col]
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def batch_estimate(P: NDArray, c: NDArray, Aeq: NDArray, G: NDArray, h: NDArray,
+                   lb: NDArray, ub: NDArray, x: NDArray, ridge: float
+                   ) -> tuple[NDArray, NDArray, NDArray]:
+    """Multipliers ``y`` (N, n), ``mu`` (N, g), ``z`` (N, k) of solved scaled poses.
+
+    A hot numerical kernel: each pose's normal equations are built and solved in one
+    pass, without the (N, k, n + g) temporaries of the numpy reference.
+
+    Parameters
+    ----------
+    P, c, lb, ub, x : ndarray, shape (N, k)
+    Aeq : ndarray, shape (N, n, k)
+    G : ndarray, shape (N, g, k)
+    h : ndarray, shape (N, g)
+        The scaled batch and its solutions (every row finite).
+    ridge : float
+        Ridge of the fit, relative to the largest diagonal entry (at least 1).
+
+    Returns
+    -------
+    y, mu, z : ndarray
+        NaN rows where the system is singular.
+    """
+    N, n, k = Aeq.shape
+    g = G.shape[1]
+    r = n + g
+    y = np.empty((N, n))
+    mu = np.empty((N, g))
+    z = np.empty((N, k))
+    B = np.empty((k, r))
+    H = np.empty((r, r))
+    u = np.empty(r)
+    grad = np.empty(k)
+    shrink = np.empty(k)
+    for p in range(N):
+        for i in range(k):
+            grad[i] = P[p, i] * x[p, i] + c[p, i]
+            near = min(abs(x[p, i] - lb[p, i]), abs(ub[p, i] - x[p, i]))
+            shrink[i] = 1.0 / (1.0 + near * near)  # 0 where there is no bound
+            for j in range(n):
+                B[i, j] = Aeq[p, j, i]
+            for j in range(g):
+                B[i, n + j] = G[p, j, i]
+        top = 0.0
+        for a in range(r):
+            total = 0.0
+            for i in range(k):
+                total -= B[i, a] * (1.0 - shrink[i]) * grad[i]
+            u[a] = total
+            for b in range(a, r):
+                total = 0.0
+                for i in range(k):
+                    total += B[i, a] * (1.0 - shrink[i]) * B[i, b]
+                H[a, b] = H[b, a] = total
+            top = max(top, abs(H[a, a]))
+        top = max(top, 1.0)
+        for a in range(r):
+            extra = 0.0
+            if a >= n:
+                slack = 0.0
+                for i in range(k):
+                    slack += G[p, a - n, i] * x[p, i]
+                slack = min(abs(h[p, a - n] - slack), 1e6)
+                extra = slack * slack
+            H[a, a] += extra + ridge * top
+        if not solve_small(H, u):
+            y[p, :], mu[p, :], z[p, :] = np.nan, np.nan, np.nan
+            continue
+        for j in range(n):
+            y[p, j] = u[j]
+        for j in range(g):
+            mu[p, j] = u[n + j]
+        for i in range(k):
+            total = grad[i]
+            for a in range(r):
+                total += B[i, a] * u[a]
+            zi = -total * shrink[i]
+            if math.isnan(zi):
+                zi = 0.0
+            elif math.isinf(zi):
+                zi = _HUGE if zi > 0 else -_HUGE
+            z[p, i] = zi
+    return y, mu, z
