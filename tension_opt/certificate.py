@@ -245,17 +245,25 @@ def estimate_multipliers(batch: ScaledBatch, x: NDArray) -> Multipliers:
     solution."""
     from tension_opt.kernels.multipliers import batch_estimate
 
+    out, idx, sub = _solved_poses(batch, x)
+    if sub is not None:
+        arrays = [np.ascontiguousarray(a, dtype=float)
+                  for a in (sub.P, sub.c, sub.Aeq, sub.G, sub.h, sub.lb, sub.ub, x[idx])]
+        out.put(idx, Multipliers(*batch_estimate(*arrays, _RIDGE)))
+    return out
+
+
+def _solved_poses(batch: ScaledBatch, x: NDArray
+                  ) -> tuple[Multipliers, NDArray | slice, ScaledBatch | None]:
+    """Unknown multipliers for ``batch``, the poses of ``x`` with a solution and their
+    batch (None if there are none)."""
     out = Multipliers.unknown(batch)
     solved = np.isfinite(x).all(axis=1)
     if not solved.any():
-        return out
+        return out, slice(0, 0), None
     every = bool(solved.all())
     idx = slice(None) if every else np.flatnonzero(solved)
-    sub = batch if every else batch.subset(idx)
-    arrays = [np.ascontiguousarray(a, dtype=float)
-              for a in (sub.P, sub.c, sub.Aeq, sub.G, sub.h, sub.lb, sub.ub, x[idx])]
-    out.put(idx, Multipliers(*batch_estimate(*arrays, _RIDGE)))
-    return out
+    return out, idx, batch if every else batch.subset(idx)
 
 
 def estimate_multipliers_reference(batch: ScaledBatch, x: NDArray) -> Multipliers:
@@ -269,13 +277,9 @@ def estimate_multipliers_reference(batch: ScaledBatch, x: NDArray) -> Multiplier
     leaving a weighted least-squares fit in ``(y, mu)`` solved for all poses at once.
     """
     n, g = batch.Aeq.shape[1], batch.G.shape[1]
-    out = Multipliers.unknown(batch)
-    solved = np.isfinite(x).all(axis=1)
-    if not solved.any():
+    out, idx, sub = _solved_poses(batch, x)
+    if sub is None:
         return out
-    every = bool(solved.all())
-    idx = slice(None) if every else np.flatnonzero(solved)
-    sub = batch if every else batch.subset(idx)
     xs = x[idx]
     grad = sub.P * xs + sub.c
     d2, slack = _distances(sub, xs)
