@@ -185,11 +185,12 @@ def measures(batch: ScaledBatch, x: NDArray, mult: Multipliers
 
     Measured by the compiled kernel :func:`tension_opt.kernels.measures.batch_measures`;
     :func:`measures_reference` is its numpy reference."""
+    from tension_opt.kernels.arrays import frozen
     from tension_opt.kernels.measures import batch_measures
 
-    arrays = [np.ascontiguousarray(a, dtype=float) for a in (
-        batch.P, batch.c, batch.Aeq, batch.beq, batch.G, batch.h, batch.lb, batch.ub, x,
-        mult.y, mult.mu, mult.z)]
+    # All read: one array type for every call (see tension_opt.kernels.arrays).
+    arrays = [frozen(a) for a in (batch.P, batch.c, batch.Aeq, batch.beq, batch.G, batch.h,
+                                  batch.lb, batch.ub, x, mult.y, mult.mu, mult.z)]
     return batch_measures(*arrays)
 
 
@@ -243,12 +244,13 @@ def estimate_multipliers(batch: ScaledBatch, x: NDArray) -> Multipliers:
     :func:`estimate_multipliers_reference`), by the compiled kernel
     :func:`tension_opt.kernels.multipliers.batch_estimate`; NaN rows where ``x`` has no
     solution."""
+    from tension_opt.kernels.arrays import frozen
     from tension_opt.kernels.multipliers import batch_estimate
 
     out, idx, sub = _solved_poses(batch, x)
     if sub is not None:
-        arrays = [np.ascontiguousarray(a, dtype=float)
-                  for a in (sub.P, sub.c, sub.Aeq, sub.G, sub.h, sub.lb, sub.ub, x[idx])]
+        arrays = [frozen(a) for a in (sub.P, sub.c, sub.Aeq, sub.G, sub.h, sub.lb, sub.ub,
+                                      x[idx])]
         out.put(idx, Multipliers(*batch_estimate(*arrays, _RIDGE)))
     return out
 

@@ -175,13 +175,13 @@ def scaled_batch(form: StandardForm) -> ScaledBatch:
 def compiled_scaling(form: StandardForm) -> Scaling:
     """:meth:`StandardForm.scaling` by the compiled kernel
     (:mod:`tension_opt.kernels.scaling`; the method is its reference)."""
+    from tension_opt.kernels.arrays import frozen
     from tension_opt.kernels.scaling import batch_scaling
 
     vmax = 0.0
     if form.minmax is not None:
         vmax = float(np.abs(form.minmax).max(initial=0.0)) or 1.0
-    arrays = [np.ascontiguousarray(a, dtype=float)
-              for a in (form.A, form.b, form.lb, form.ub, form.q, form.c)]
+    arrays = [frozen(a) for a in (form.A, form.b, form.lb, form.ub, form.q, form.c)]
     tension, rows, top, quadratic = batch_scaling(*arrays, vmax, UB_SHARE, ROW_FLOOR)
     return Scaling(tension=tension, rows=rows, top=top, quadratic=quadratic,
                    vmax=vmax or 1.0)
