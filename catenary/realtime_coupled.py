@@ -39,9 +39,9 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt import CableRobot
 from tension_opt.certificate import accuracy_target
 from tension_opt.kernels import closed_form as cf
-from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, kind_code, rotation
+from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, rotation
 from tension_opt.problems import TensionProblem, as_problem
-from tension_opt.solution import FEASIBILITY_TOL, STATUS_DTYPE, Status
+from tension_opt.solution import STATUS_DTYPE, Status
 
 from .errors import InvalidCableError
 from .geometry import cable_data
@@ -489,19 +489,10 @@ class CoupledIK:
                                                      problem.reference)))
 
     def _pack(self) -> NDArray:
-        """The constant data of the kernels (:func:`tension_opt.kernels.closed_form.pack`)."""
-        robot, problem, m = self.robot, self.problem, self.robot.m
-        lb, ub = problem.bounds(robot, 1)
-        reference = None
-        if problem.objective.uses_reference and problem.reference is not None:
-            reference = np.broadcast_to(problem.reference, (1, m)).astype(float)
-        terms = problem.objective.terms(problem.cable_weights(m), lb, ub, reference)
-        stacked = np.stack([terms.q[0], terms.c[0], np.ones(m), lb[0], ub[0],
-                            np.full(m, np.inf)])
-        target = accuracy_target(self.options.get("accuracy"))
-        return cf.pack(kind_code(robot.kind), robot.anchors, robot.attachments, robot.com,
-                    robot.mass * robot.g, 1e-12 * max(1.0, float(np.abs(robot.anchors).max())),
-                    0.0, max(FEASIBILITY_TOL, 10.0 * target), False, stacked)
+        """The constant data of the kernels
+        (:func:`tension_opt.kernels.closed_form.pack_problem`)."""
+        return cf.pack_problem(self.robot, self.problem,
+                               accuracy_target(self.options.get("accuracy")))
 
     def reset(self) -> None:
         """Forget this thread's last pose (the next one starts cold)."""

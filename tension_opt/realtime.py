@@ -40,7 +40,7 @@ from tension_opt.distribute import distribute
 from tension_opt.errors import InvalidInputError
 from tension_opt.problems import TensionProblem, as_problem
 from tension_opt.robot import CableRobot
-from tension_opt.solution import FEASIBILITY_TOL, STATUS_DTYPE, Status
+from tension_opt.solution import STATUS_DTYPE, Status
 
 __all__ = ["Distributor", "RealtimeResult"]
 
@@ -189,25 +189,10 @@ class Distributor:
                                                 or bool(self.problem.smoothing))
 
     def _pack(self) -> NDArray:
-        """The constant data of the kernels (:func:`closed_form.pack`)."""
-        from tension_opt.kernels.closed_form import pack
-        from tension_opt.kernels.geometry import kind_code
+        """The constant data of the kernels (:func:`closed_form.pack_problem`)."""
+        from tension_opt.kernels.closed_form import pack_problem
 
-        robot, problem, m = self.robot, self.problem, self.robot.m
-        lb, ub = problem.bounds(robot, 1)
-        reference = None
-        if problem.objective.uses_reference and problem.reference is not None:
-            reference = np.broadcast_to(problem.reference, (1, m)).astype(float)
-        terms = problem.objective.terms(problem.cable_weights(m), lb, ub, reference)
-        rate = np.full(m, np.inf) if problem.rate_limit is None else np.broadcast_to(
-            np.asarray(problem.rate_limit, dtype=float), (m,))
-        minmax = terms.minmax is not None
-        v = np.ones(m) if not minmax else np.asarray(terms.minmax, dtype=float)
-        stacked = np.stack([terms.q[0], terms.c[0], v, lb[0], ub[0], rate])
-        return pack(kind_code(robot.kind), robot.anchors, robot.attachments, robot.com,
-                    robot.mass * robot.g, 1e-12 * max(1.0, float(np.abs(robot.anchors).max())),
-                    float(problem.smoothing), max(FEASIBILITY_TOL, 10.0 * self._target),
-                    minmax, stacked)
+        return pack_problem(self.robot, self.problem, self._target)
 
     def _thread_work(self) -> Any:
         """This thread's work space (a float array, or the DAQP workspace), made once."""

@@ -14,6 +14,7 @@ measures of the certificate hold by construction for an exact closed form).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit, prange
@@ -31,11 +32,12 @@ from tension_opt.kernels.lowdim import (
     solve_1d,
 )
 from tension_opt.kernels.nullspace import null_space, null_space_work
+from tension_opt.solution import FEASIBILITY_TOL
 
 __all__ = ["CODE_BAD_INPUT", "CODE_FALLBACK", "CODE_STATUS", "HEADER", "HUGE", "form_terms",
-           "judge", "pack", "point4", "pose_scales", "solve_batch", "solve_batch_serial",
-           "solve_form", "solve_forms", "solve_forms_serial", "solve_one", "solve_sequence",
-           "work_size"]
+           "judge", "pack", "pack_problem", "point4", "pose_scales", "solve_batch",
+           "solve_batch_serial", "solve_form", "solve_forms", "solve_forms_serial", "solve_one",
+           "solve_sequence", "work_size"]
 
 #: Status codes of the kernels and the :class:`~tension_opt.solution.Status` values
 #: they stand for; :data:`CODE_FALLBACK` asks for the numpy path (singular or badly
@@ -92,6 +94,37 @@ def pack(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray, weight
     return np.ascontiguousarray(np.concatenate([
         np.array(header, dtype=float), np.asarray(anchors, dtype=float).ravel(),
         np.asarray(attachments, dtype=float).ravel(), np.asarray(terms, dtype=float).ravel()]))
+
+
+def pack_problem(robot: Any, problem: Any, target: float) -> NDArray:
+    """:func:`pack` of a robot and a problem whose per-cable data are one row (the
+    kernels' condition: no per-pose bounds or reference), judged at accuracy ``target``.
+
+    Parameters
+    ----------
+    robot : tension_opt.CableRobot
+        A robot of a kind in :data:`tension_opt.kernels.geometry.KIND_CODES`.
+    problem : tension_opt.TensionProblem
+    target : float
+        Accuracy target (:func:`tension_opt.certificate.accuracy_target`).
+    """
+    from tension_opt.kernels.geometry import kind_code
+
+    m = robot.m
+    lb, ub = problem.bounds(robot, 1)
+    reference = None
+    if problem.objective.uses_reference and problem.reference is not None:
+        reference = np.broadcast_to(problem.reference, (1, m)).astype(float)
+    terms = problem.objective.terms(problem.cable_weights(m), lb, ub, reference)
+    rate = np.full(m, np.inf) if problem.rate_limit is None else np.broadcast_to(
+        np.asarray(problem.rate_limit, dtype=float), (m,))
+    minmax = terms.minmax is not None
+    v = np.ones(m) if not minmax else np.asarray(terms.minmax, dtype=float)
+    stacked = np.stack([terms.q[0], terms.c[0], v, lb[0], ub[0], rate])
+    return pack(kind_code(robot.kind), robot.anchors, robot.attachments, robot.com,
+                robot.mass * robot.g, 1e-12 * max(1.0, float(np.abs(robot.anchors).max())),
+                float(problem.smoothing), max(FEASIBILITY_TOL, 10.0 * target), minmax,
+                stacked)
 
 
 @njit(cache=True, error_model="numpy")
