@@ -14,7 +14,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import catenary
@@ -56,16 +56,21 @@ def assert_agree(got: catenary.InverseKinematicsResult,
 
 @SLOW
 @given(pose=ALGAE_POSES)
+@example(pose=(0.0, 0.0, 7.5))  # on both symmetry planes, at the towers' height
 def test_cold_start_runs_the_reference_iterates(pose: tuple[float, float, float]) -> None:
     p = np.array(pose)
     ref = catenary.inverse_kinematics(ALGAE, p, model="coupled")
     got = CoupledIK(ALGAE, warm_start=False)(p)
-    straight = to.distribute(ALGAE, p, "min_sum").status[0] == Status.OPTIMAL
+    start = to.distribute(ALGAE, p, "min_sum")
+    straight = start.status[0] == Status.OPTIMAL and bool(start.unique[0])
     # The same iteration: the same fixed point to the stopping tolerance (the last step
     # is below 1e-10 of the largest tension; where the reference's closed form and the
     # kernel differ in the last bits, the stopping test may pass one iteration apart).
     # Without a straight-line start the reference starts from its margin search, the
-    # kernel from the home answer: the same fixed point, not the same iterates.
+    # kernel from the home answer: the same fixed point, not the same iterates. A
+    # straight-line optimum that is not unique (on the symmetry planes) is broken to the
+    # minimum norm of its face, a step the two take in different order: again the same
+    # fixed point (9 iterations against 4 at the centre of the towers' top).
     assert_agree(got, ref, 10 * TOL, LOAD)
     if ref.status[0] == Status.CONVERGED and straight:
         assert abs(int(got.iterations[0]) - int(ref.iterations[0])) <= 1
