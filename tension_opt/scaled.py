@@ -102,8 +102,12 @@ class ScaledBatch:
 
 def working_scale(form: StandardForm) -> NDArray:
     """Reference tension per pose (N), shape (N,), finite even where
-    :meth:`StandardForm.scale` overflows (``form.scaling().tension``)."""
-    return scaled_batch(form).scale
+    :meth:`StandardForm.scale` overflows (``form.scaling().tension``); the batch's
+    when it is already built, else the scaling kernel's alone (building the whole
+    scaled batch only for this would be wasted)."""
+    with _CACHE_LOCK:
+        batch = _CACHE.get(form)
+    return batch.scale if batch is not None else compiled_scaling(form).tension
 
 
 def scaled_objective(form: StandardForm, s: NDArray | None = None,

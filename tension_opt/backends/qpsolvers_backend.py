@@ -252,12 +252,8 @@ class QpsolversBackend(Backend):
         x_prev = None
         for i in range(N):
             try:
-                if warm or settings:
-                    x, _, flag, info = solve(Hs[i], cs[i], A[i], ups[i], lows[i], sense,
-                                             primal_start=x_prev if warm else None,
-                                             **settings)
-                else:  # the common case, free of keyword handling
-                    x, _, flag, info = solve(Hs[i], cs[i], A[i], ups[i], lows[i], sense)
+                x, _, flag, info = solve(Hs[i], cs[i], A[i], ups[i], lows[i], sense,
+                                         primal_start=x_prev if warm else None, **settings)
             except Exception as error:  # a solver's failure on one pose
                 note_error(extras, i, error)
                 continue
