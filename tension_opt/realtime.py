@@ -146,7 +146,13 @@ class Distributor:
             self._data = self._pack()
             self._kernels = closed_form
             self._work_size = int(closed_form.work_size(robot.m, robot.dof))
-            if not closed:
+            if closed:
+                from tension_opt.kernels.launch import entry_point
+
+                self._solve_one = entry_point(
+                    closed_form.solve_one, self._data, self._no_wrench, self._no_wrench,
+                    self._no_prev, False, np.empty(self._work_size), np.empty(robot.m))
+            else:
                 self._daqp = {"settings": solver_options("daqp", self.options.get("accuracy")),
                               "warm": bool(self.options.get("warm_start", True))}
 
@@ -217,7 +223,7 @@ class Distributor:
         """Tensions of one pose (n,) or a batch (N, n); see the class docstring."""
         if (wrench is None and previous is None and type(pose) is np.ndarray
                 and pose.dtype is _F64 and pose.shape == self._shape
-                and self._data is not None):
+                and self._data is not None and pose.flags.c_contiguous):
             return self._one(pose, self._no_wrench, None, None)
         return self._general(pose, wrench, previous)
 
@@ -248,7 +254,7 @@ class Distributor:
             if prev.shape != (self.robot.m,):
                 raise InvalidInputError(
                     f"previous must have shape ({self.robot.m},), got {prev.shape}")
-            return prev
+            return np.ascontiguousarray(prev)
         return getattr(self._local, "last", None)
 
     def _one(self, p: NDArray, w: NDArray, wrench: ArrayLike | None,
@@ -266,7 +272,9 @@ class Distributor:
         T = np.empty(self._m)
         has_prev = prev is not None
         if self._daqp is None:
-            code, unique, res, infeas = self._kernels.solve_one(
+            # Every argument is a contiguous float64 vector (the callers see to it):
+            # the types the entry point was made for.
+            code, unique, res, infeas = self._solve_one(
                 self._data, p, w, prev if has_prev else self._no_prev, has_prev, work, T)
         else:
             code, res = work.solve(self._data, p, w, prev if has_prev else self._no_prev,

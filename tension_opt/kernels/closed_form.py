@@ -274,8 +274,17 @@ def solve_one(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
         return CODE_FALLBACK, True, np.nan, np.nan
     form_terms(terms[0], terms[1], terms[3], terms[4], data[5], terms[5], prev, has_prev,
            q, c, lb, ub)
-    return solve_form(A, b, lb, ub, q, c, terms[2], data[7] != 0.0, data[6], T,
-                      work[o + 4 * m:])
+    minmax, rest = data[7] != 0.0, work[o + 4 * m:]
+    if n == 3 and m == 4 and not minmax:  # as the numpy path: its shortcut first
+        quadratic = False
+        for i in range(m):
+            quadratic = quadratic or q[i] != 0.0
+        settled, unique = point4(A, b, lb, ub, q, c, quadratic, T, rest)
+        if settled:
+            tol_scale = pose_scales(A, b, lb)[1]
+            code, res = judge(A, b, lb, ub, T, data[6] * tol_scale)
+            return code, unique, res, np.nan
+    return solve_form(A, b, lb, ub, q, c, terms[2], minmax, data[6], T, rest)
 
 
 @njit(cache=True, error_model="numpy")

@@ -163,6 +163,33 @@ def test_distributor_on_the_study_robot_and_cogiro():
             assert_same(solver(p[0]), to.distribute(robot, p[0], objective, "closed_form"))
 
 
+def test_strided_read_only_and_integer_poses_answer_as_contiguous_ones():
+    # The one-pose path calls the kernel's machine code without numba's type checks,
+    # so every other array type must reach it as a contiguous float64 vector.
+    robot = presets.cogiro()
+    p = poses_of(robot, 11, 6)
+    solver = to.Distributor(robot, "min_norm", "closed_form")
+    wide = np.zeros((len(p), 2 * robot.dof))
+    wide[:, ::2] = p
+    read_only = p.copy()
+    read_only.flags.writeable = False
+    previous = np.zeros((robot.m, 2))
+    previous[:, 0] = 3000.0
+    streamed = to.Distributor(robot, to.TensionProblem("min_norm", smoothing=0.1),
+                              "closed_form")
+    for k in range(len(p)):
+        expected = solver(p[k].copy())
+        for pose in (wide[k, ::2], read_only[k], list(p[k])):
+            assert_same(solver(pose), to.distribute(robot, p[k], "min_norm", "closed_form"))
+            np.testing.assert_array_equal(solver(pose).tensions, expected.tensions)
+        np.testing.assert_array_equal(
+            streamed(wide[k, ::2], previous=previous[:, 0]).tensions,
+            streamed(p[k].copy(), previous=previous[:, 0].copy()).tensions)
+    integer = to.Distributor(presets.algae_harvester(), "min_sum", "closed_form")
+    np.testing.assert_array_equal(integer(np.array([1, 2, 3])).tensions,
+                                  integer(np.array([1.0, 2.0, 3.0])).tensions)
+
+
 def test_singular_and_degenerate_poses_go_through_the_numpy_path():
     robot = presets.algae_harvester()
     anchors_height = robot.anchors[0, 2]
