@@ -277,7 +277,15 @@ class DaqpPose:
         self._structs = None if c_solver is None else daqp_native.struct_buffer(
             c_solver, self.settings)
         self.native = self._structs is not None
-        if not self.native:
+        if self.native:
+            from tension_opt.kernels.launch import entry_point
+
+            # Called with contiguous float64 vectors only (see solve).
+            vector = np.zeros(1)
+            self._solve_pose = entry_point(solve_pose, vector, vector, vector, vector, False,
+                                           0.0, vector, self.floats, self.sense,
+                                           self._structs, warm)
+        else:
             import daqp
 
             self._solve: Any = daqp.solve
@@ -285,11 +293,13 @@ class DaqpPose:
     def solve(self, data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
               has_prev: bool, target: float, T: NDArray) -> tuple[int, float]:
         """Tensions of one pose written to ``T`` (m,); returns ``(code, residual)`` with
-        code 0 (certified optimal), ``CODE_FALLBACK`` or ``CODE_BAD_INPUT``."""
+        code 0 (certified optimal), ``CODE_FALLBACK`` or ``CODE_BAD_INPUT``. ``data``,
+        ``pose``, ``wrench``, ``prev`` and ``T`` are contiguous float64 vectors (the
+        compiled call checks no type)."""
         if self._structs is not None:
-            code, res, iterations = solve_pose(data, pose, wrench, prev, has_prev, target, T,
-                                               self.floats, self.sense, self._structs,
-                                               self.warm)
+            code, res, iterations = self._solve_pose(
+                data, pose, wrench, prev, bool(has_prev), float(target), T, self.floats,
+                self.sense, self._structs, self.warm)
             if iterations >= 0:
                 self.iterations = iterations
             return code, res
