@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 import tension_opt
 from tension_opt.errors import TensionOptError
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, kind_code, rotation
+from tension_opt.kernels.launch import entry_point
 from tension_opt.problems import TensionProblem, as_problem
 from tension_opt.solution import Status
 
@@ -145,6 +146,12 @@ class CompiledThesis:
         self.inv_EA = 0.0 if math.isinf(self.EA) else 1.0 / self.EA
         self.work = robot.dof * robot.m + 2 * robot.dof + 5
         self.no_wrench = np.zeros(robot.dof)
+        m = robot.m
+        # Called with exactly these types (contiguous float64 arrays, see solve).
+        self._thesis_pose = entry_point(
+            thesis_pose, self.kind, self.anchors, self.attachments, self.com,
+            float(self.weight), self.no_wrench, self.no_wrench, np.zeros(m), float(self.w),
+            float(self.inv_EA), np.empty((7, m)), np.empty((m, 3)), np.empty(self.work))
 
     def solve(self, pose: NDArray, wrench: NDArray | None
               ) -> tuple[NDArray, NDArray, float] | None:
@@ -163,9 +170,10 @@ class CompiledThesis:
         m = self.robot.m
         out, forces = np.empty((7, m)), np.empty((m, 3))
         w = self.no_wrench if wrench is None else wrench
-        solved, residual = thesis_pose(self.kind, self.anchors, self.attachments, self.com,
-                                       self.weight, pose, w, straight.tensions, self.w,
-                                       self.inv_EA, out, forces, np.empty(self.work))
+        tensions = np.ascontiguousarray(straight.tensions, dtype=np.float64)
+        solved, residual = self._thesis_pose(
+            self.kind, self.anchors, self.attachments, self.com, float(self.weight), pose, w,
+            tensions, float(self.w), float(self.inv_EA), out, forces, np.empty(self.work))
         return (out, forces, residual) if solved else None
 
 
