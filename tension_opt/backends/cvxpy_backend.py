@@ -44,6 +44,12 @@ LP_ONLY = {"SCIPY", "GLOP", "CBC", "GLPK"}
 #: itself about a third of the study's min-norm poses missed it alone under Clarabel and
 #: were solved again one by one (3.6x the time of a joint solve at 1e-2 of the target).
 JOINT_SHARE = 1e-2
+#: The share once a joint solve of a call has left poses above the target: the rest of
+#: the call's chunks ask for this one. On 400 study poses (min-norm, Clarabel), 1e-2
+#: left 11 poses to be solved again alone (36 solves in all), 1e-3 one (26 solves) for
+#: half an iteration more per solve. Where 1e-2 leaves none (min-sum, min-max, CoGiRo;
+#: OSQP, SCS, PIQP), those iterations would be spent for nothing, hence only after a miss.
+TIGHT_JOINT_SHARE = 1e-3
 #: QP solvers unsuited to LPs: PROXQP failed on a quarter of the study's min-sum poses.
 _NO_LP = {"PROXQP"}
 #: The options cvxpy's ProxQP interface passes on (it drops any other).
@@ -246,7 +252,8 @@ class CvxpyBackend(Backend):
 
         A joint solve asks for :data:`JOINT_SHARE` of the target (its stopping test
         measures the chunk as a whole, so a looser one leaves single poses above the
-        target). A chunk whose joint solve is not optimal (an infeasible pose in it,
+        target), and for :data:`TIGHT_JOINT_SHARE` once a chunk of the call has left
+        poses above it. A chunk whose joint solve is not optimal (an infeasible pose in it,
         say), and each pose of a chunk whose joint answer misses the accuracy target on
         its own, is solved again pose by pose, so statuses and accuracy stay per pose.
         Iterations are those of the solve that produced the pose.
@@ -257,10 +264,10 @@ class CvxpyBackend(Backend):
         extra = 0 if form.G is None else form.G.shape[1]
         settings = [solver_options(self._solver, accuracy, options.get("time_limit"),
                                    options.get("solver_options"), interface="cvxpy")
-                    for accuracy in (target, JOINT_SHARE * target)]
+                    for accuracy in (target, JOINT_SHARE * target, TIGHT_JOINT_SHARE * target)]
         call = _Call(batch, extra, np.isfinite(batch.lb[:, :batch.m]),
                      np.isfinite(batch.ub[:, :batch.m]), bool(options.get("warm_start", False)),
-                     settings[0], target, settings[1])
+                     settings[0], target, settings[1:])
         # Joint stopping criteria loosen per-pose accuracy: tight targets go pose by pose.
         default_k = 1 if target < DEFAULT_TARGET else 16
         K = max(1, min(int(options.get("batch_size") or default_k), form.N))
@@ -282,6 +289,7 @@ class CvxpyBackend(Backend):
         extras: dict[str, Any] = {}
         has_iters = True
         compile_time = 0.0
+        joint = call.joint_settings[0]
         for start in range(0, N, K):
             # The last chunk is padded with its own last pose to keep one compiled size.
             rows = np.minimum(np.arange(start, start + K), N - 1)
@@ -289,7 +297,7 @@ class CvxpyBackend(Backend):
             if K > 1:
                 compiled, dt = self._compiled(call, call.lb_fin[rows], call.ub_fin[rows])
                 compile_time += dt
-                st, count, x = self._run(compiled, call, rows, extras)
+                st, count, x = self._run(compiled, call, rows, extras, joint)
                 if st == Status.OPTIMAL and x is not None:
                     real = rows[: min(K, N - start)]
                     T[real] = x[: len(real)] * batch.scale[real, None]
@@ -300,12 +308,14 @@ class CvxpyBackend(Backend):
                     if found is not None:
                         duals.put(real, found.subset(slice(0, len(real))))
                     again = self._missed(call, T, duals, real)
+                    if again:  # the poses of this call need more of a joint solve
+                        joint = call.joint_settings[1]
                 extras.pop("errors", None)  # the poses say for themselves below
             for i in again:
                 one = np.array([i])
                 compiled, dt = self._compiled(call, call.lb_fin[one], call.ub_fin[one])
                 compile_time += dt
-                st, count, x = self._run(compiled, call, one, extras)
+                st, count, x = self._run(compiled, call, one, extras, call.settings)
                 status[i] = st
                 has_iters &= count is not None
                 iters[i] = count or 0
@@ -324,11 +334,10 @@ class CvxpyBackend(Backend):
         certificate = certify(sub, sub.lift(T[rows]), duals.subset(rows), call.target)
         return [int(i) for i in rows[~certificate.certified]]
 
-    def _run(self, compiled: _Compiled, call: _Call, rows: NDArray, extras: dict[str, Any]
-             ) -> tuple[Status, int | None, NDArray | None]:
+    def _run(self, compiled: _Compiled, call: _Call, rows: NDArray, extras: dict[str, Any],
+             settings: dict[str, Any]) -> tuple[Status, int | None, NDArray | None]:
         try:
             compiled.load(call, rows)
-            settings = call.settings if len(rows) == 1 else call.joint_settings
             compiled.problem.solve(solver=self._solver, warm_start=call.warm, **settings)
         except Exception as error:  # a solver's failure on these poses
             note_error(extras, int(rows[0]), error)
@@ -351,8 +360,9 @@ class _Call:
     warm: bool
     settings: dict[str, Any]
     target: float
-    #: Options of a joint solve of several poses (:data:`JOINT_SHARE` of the target).
-    joint_settings: dict[str, Any]
+    #: Options of a joint solve of several poses: at :data:`JOINT_SHARE` of the target,
+    #: then at :data:`TIGHT_JOINT_SHARE`.
+    joint_settings: list[dict[str, Any]]
 
 
 def available() -> list[str]:

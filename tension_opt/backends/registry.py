@@ -135,5 +135,5 @@ def choose_backend(backend: str | Backend, form: StandardForm,
     reason = chosen.unsupported(form)
     if reason is not None:
         raise UnsupportedProblemError(
-            f"{reason} ({label}; backends that can: {able_backends(form)})")
+            f"{reason} (problem: {label}; backends that can: {able_backends(form)})")
     return chosen
