@@ -123,7 +123,11 @@ class ForcesResult:
 
 @dataclass(frozen=True)
 class LengthResult(ForcesResult):
-    """Unstretched lengths (m) for a prescribed tension, plus the end forces."""
+    """Unstretched lengths (m) for a prescribed tension, plus the end forces.
+
+    ``iterations`` counts Newton steps only (a bracketing search's are not added), and
+    is 0 for an infeasible cable.
+    """
 
     L0: FloatArray = None  # type: ignore[assignment]
 

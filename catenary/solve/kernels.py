@@ -12,8 +12,13 @@ chord, end tension within ``T_TOL``). A cable the kernels do not settle that way
 Newton not converging or leaving the taut branch, data beyond the double range) gets
 the code :data:`FALLBACK`, and the caller solves it by the numpy path, whose closed
 forms and bracketing searches cover every case; data the numpy path rejects get
-:data:`INVALID`. This module imports numpy and numba only; numba compiles it on first
-use and keeps the machine code on disk (``cache=True``).
+:data:`INVALID`. Over a batch, :func:`solve_length_cables` also decides the cables
+whose tension no catenary through both ends carries (:data:`INFEASIBLE`) and finds the
+taut root of the ones Newton leaves, from the family of cables with that end tension
+(:mod:`catenary.solve.kernels_bracket`). This module (and that one) import numpy and
+numba only; numba compiles them on first use and keeps the machine code on disk
+(``cache=True``; numba checks a cached function against its own module only, so a
+change to ``kernels_bracket`` alone needs this module's cache cleared).
 """
 
 from __future__ import annotations
@@ -24,13 +29,17 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-__all__ = ["CONVERGED", "FALLBACK", "INVALID", "PARALLEL_FROM", "solve_forces_batch",
+from .kernels_bracket import FEASIBLE, family_decision
+from .kernels_bracket import INFEASIBLE as NO_MEMBER
+
+__all__ = ["CONVERGED", "FALLBACK", "INFEASIBLE", "INVALID", "PARALLEL_FROM", "solve_forces_batch",
            "solve_forces_cables", "solve_forces_cables_parallel", "solve_forces_one",
            "solve_length_cables", "solve_length_cables_parallel",
            "solve_length_one", "solve_length_serial", "spans_one"]
 
-#: Codes of the solvers: certified, to be solved by the numpy path, invalid data.
-CONVERGED, FALLBACK, INVALID = 0, 1, 2
+#: Codes of the solvers: certified, to be solved by the numpy path, invalid data, no
+#: catenary through both ends carries the prescribed tension.
+CONVERGED, FALLBACK, INVALID, INFEASIBLE = 0, 1, 2, 3
 #: Cables from which a batch runs in parallel (below, waking threads costs more than
 #: the work).
 PARALLEL_FROM = 2048
@@ -64,33 +73,45 @@ def _g(a: float) -> float:
 
 
 @njit(cache=True, error_model="numpy")
+def _spans(H: float, V_B: float, L0: float, w: float, inv_EA: float
+           ) -> tuple[float, float, float, float, float, float, float, float, bool, bool]:
+    """The spans part of :func:`spans_one`: ``(x, z, V_A, T_A, T_B, rho, qm1, S,
+    opposite, regular)`` (``qm1`` only where not ``opposite``: it is not needed there)."""
+    wL = w * L0
+    V_A = V_B - wL
+    T_A, T_B = math.hypot(H, V_A), math.hypot(H, V_B)
+    S, TS = V_A + V_B, T_A + T_B
+    rho = S / (V_B * T_A + V_A * T_B)
+    HL = H * L0
+    opposite = V_A < 0.0 and V_B > 0.0
+    qm1 = 0.0
+    if opposite:
+        x_c = H / w * (math.asinh(V_B / H) - math.asinh(V_A / H))
+    else:
+        u = wL * rho
+        if abs(u) < _SERIES_CUT:
+            qm1 = u * u * _poly(_ASINHC_M1, u * u)
+            q = 1.0 + qm1
+        else:
+            q = math.asinh(u) / u
+            qm1 = q - 1.0
+        x_c = HL * rho * q
+    z_c = L0 * S / TS
+    regular = math.isfinite(x_c) and H != 0.0 and not abs(S) < 1e-150 * H
+    x = HL * inv_EA + x_c
+    z = 0.5 * L0 * S * inv_EA + z_c
+    return x, z, V_A, T_A, T_B, rho, qm1, S, opposite, regular
+
+
+@njit(cache=True, error_model="numpy")
 def spans_one(H: float, V_B: float, L0: float, w: float, inv_EA: float
               ) -> tuple[float, float, float, float, float, float, float, bool]:
     """Spans, flexibility and end tensions of one cable, ``(x, z, F_xx, F_xz, F_zz,
     T_A, T_B, regular)`` (:func:`catenary.elastic.evaluate`); ``regular`` is False
     at the degenerate limits (vertical cable, ``|V_A + V_B| << H``), which the numpy
     path handles."""
-    wL = w * L0
-    V_A = V_B - wL
-    T_A, T_B = math.hypot(H, V_A), math.hypot(H, V_B)
-    S, TS = V_A + V_B, T_A + T_B
-    rho = S / (V_B * T_A + V_A * T_B)
-    u = wL * rho
-    if abs(u) < _SERIES_CUT:
-        qm1 = u * u * _poly(_ASINHC_M1, u * u)
-        q = 1.0 + qm1
-    else:
-        q = math.asinh(u) / u
-        qm1 = q - 1.0
-    HL = H * L0
-    x_c = HL * rho * q
-    z_c = L0 * S / TS
-    opposite = V_A < 0.0 and V_B > 0.0
-    if opposite:
-        x_c = H / w * (math.asinh(V_B / H) - math.asinh(V_A / H))
-    regular = math.isfinite(x_c) and H != 0.0 and not abs(S) < 1e-150 * H
-    x = HL * inv_EA + x_c
-    z = 0.5 * L0 * S * inv_EA + z_c
+    x, z, V_A, T_A, T_B, rho, qm1, S, opposite, regular = _spans(H, V_B, L0, w, inv_EA)
+    TS, HL = T_A + T_B, H * L0
     TT, H2 = T_A * T_B, H * H
     F_xz = -HL * S / (TT * TS)
     VA2, VB2 = V_A * V_A, V_B * V_B
@@ -156,11 +177,21 @@ def _initial(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float
 
 @njit(cache=True, error_model="numpy")
 def _newton_length(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float,
-                   rtol: float, max_iter: int) -> tuple[float, float, float, bool, int]:
+                   rtol: float, max_iter: int
+                   ) -> tuple[float, float, float, bool, int, bool]:
     """Newton in (end angle, ``L0``) on nondimensional data, as
     :func:`catenary.solve.length_newton.newton_length`: ``(p, q, L0, converged,
-    iterations)``; not converged also where the span formulas reach a limit."""
+    iterations, regular)``; not converged, and not ``regular``, also where the span
+    formulas reach a limit (which the numpy path's Newton passes)."""
     p, q, l0 = _initial(at_b, x, z, T, w, inv_EA)
+    return _newton_from(at_b, x, z, T, w, inv_EA, p, q, l0, rtol, max_iter)
+
+
+@njit(cache=True, error_model="numpy")
+def _newton_from(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float,
+                 p: float, q: float, l0: float, rtol: float, max_iter: int
+                 ) -> tuple[float, float, float, bool, int, bool]:
+    """:func:`_newton_length` from the start ``(p, q, l0)``."""
     tol = RES_TOL * math.hypot(x, z)
     for its in range(1, max_iter + 1):
         h = T * p
@@ -168,7 +199,7 @@ def _newton_length(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: f
         va = v - w * l0 if at_b else T * q
         xs, zs, fxx, fxz, fzz, ta, tb, regular = spans_one(h, v, l0, w, inv_EA)
         if not regular:
-            return p, q, l0, False, its
+            return p, q, l0, False, its, False
         rx, rz = xs - x, zs - z
         if at_b:
             xp, zp = h * fxz - v * fxx, h * fzz - v * fxz
@@ -189,11 +220,11 @@ def _newton_length(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: f
         small = abs(dp) <= rtol and abs(dl) <= rtol * l0
         fit = abs(rx) <= tol and abs(rz) <= tol
         if not (math.isfinite(pn) and math.isfinite(qn) and math.isfinite(ln)):
-            return p, q, l0, False, its
+            return p, q, l0, False, its, True
         p, q, l0 = pn, qn, ln
         if small:  # the taut branch has det < 0 at its root
-            return p, q, l0, fit and det < 0.0, its
-    return p, q, l0, False, max_iter
+            return p, q, l0, fit and det < 0.0, its, True
+    return p, q, l0, False, max_iter, True
 
 
 @njit(cache=True, error_model="numpy")
@@ -206,7 +237,8 @@ def solve_length_one(at_b: bool, x: float, z: float, T: float, w: float, inv_EA:
     L0, iterations)`` (N, N, N, m) where solved. Returns :data:`CONVERGED` (certified)
     or :data:`FALLBACK`.
     """
-    code, H, V_B, V_A, L0, its = _length_values(at_b, x, z, T, w, inv_EA, rtol, max_iter)
+    code, H, V_B, V_A, L0, its = _length_values(at_b, x, z, T, w, inv_EA, rtol, max_iter,
+                                                False)
     if code == CONVERGED:
         out[0], out[1], out[2], out[3], out[4] = H, V_B, V_A, L0, its
     return code
@@ -214,9 +246,14 @@ def solve_length_one(at_b: bool, x: float, z: float, T: float, w: float, inv_EA:
 
 @njit(cache=True, error_model="numpy")
 def _length_values(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float,
-                   rtol: float, max_iter: int
+                   rtol: float, max_iter: int, decide: bool
                    ) -> tuple[int, float, float, float, float, int]:
-    """:func:`solve_length_one` as ``(code, H, V_B, V_A, L0, iterations)``."""
+    """:func:`solve_length_one` as ``(code, H, V_B, V_A, L0, iterations)``; with
+    ``decide`` the family of the cable decides (:mod:`catenary.solve.kernels_bracket`)
+    the data too light to be held, before Newton, and the cables Newton leaves:
+    :data:`INFEASIBLE` (0 iterations, as the numpy path), or the taut member polished
+    by the same Newton (its iterations added), the numpy path's bracketing search and
+    polish."""
     nan = np.nan
     if not (x > 0.0 and T > 0.0 and 0.0 <= w < np.inf and 0.0 <= inv_EA < np.inf
             and math.isfinite(x) and math.isfinite(z) and math.isfinite(T)):
@@ -226,7 +263,21 @@ def _length_values(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: f
     ws, ies = (w / F) * ell, inv_EA * F
     if not math.isfinite(ws * ies):
         return FALLBACK, nan, nan, nan, nan, 0
-    p, q, l0, converged, its = _newton_length(at_b, xs, zs, Ts, ws, ies, rtol, max_iter)
+    decide = decide and ws > 0.0
+    if decide and family_decision(at_b, xs, zs, Ts, ws, ies, False)[0] == NO_MEMBER:
+        return INFEASIBLE, nan, nan, nan, nan, 0
+    p, q, l0, converged, its, regular = _newton_length(at_b, xs, zs, Ts, ws, ies, rtol,
+                                                      max_iter)
+    if not converged and decide and regular:  # where the numpy path brackets
+        outcome, p, q, l0 = family_decision(at_b, xs, zs, Ts, ws, ies, True)
+        if outcome == NO_MEMBER:
+            return INFEASIBLE, nan, nan, nan, nan, 0
+        if outcome == FEASIBLE:  # polished as the numpy path's bracketed roots
+            start = l0
+            p, q, l0, converged, polish, _ = _newton_from(at_b, xs, zs, Ts, ws, ies, p,
+                                                          q, l0, rtol, max_iter)
+            its += polish
+            converged = converged and abs(l0 - start) <= 1e-6 * start
     if not converged:
         return FALLBACK, nan, nan, nan, nan, its
     H = Ts * p
@@ -252,7 +303,7 @@ def _certified(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float
     if not (math.isfinite(H) and math.isfinite(V_B) and math.isfinite(L0) and H >= 0
             and L0 > 0):
         return False
-    xs, zs, _, _, _, _, _, _ = spans_one(H, V_B, L0, w, inv_EA)
+    xs, zs = _spans(H, V_B, L0, w, inv_EA)[:2]
     tol = RES_TOL * math.hypot(x, z)
     return abs(xs - x) <= tol and abs(zs - z) <= tol
 
@@ -275,8 +326,11 @@ def solve_length_cables(at_b: bool, x: NDArray, z: NDArray, T: NDArray, w: NDArr
 
     ``x, z, T, w, EA`` have ``n`` entries or one (the same for every cable). ``out``
     (4, n) gets rows ``(H, V_B, V_A, L0)``; ``ints`` (2, n) the code
-    (:data:`CONVERGED`, :data:`FALLBACK`, or :data:`INVALID` for data the numpy path
-    rejects) and the iterations. Returns the number of cables not :data:`CONVERGED`.
+    (:data:`CONVERGED`, :data:`INFEASIBLE`, :data:`FALLBACK`, or :data:`INVALID` for
+    data the numpy path rejects) and the iterations. Beyond :func:`solve_length_one`,
+    the family of each cable decides infeasible data (before Newton where a bound
+    shows it) and the taut root of cables Newton does not settle. Returns the number
+    of cables not :data:`CONVERGED`.
     """
     unsettled = 0
     for i in range(out.shape[1]):
@@ -309,7 +363,7 @@ def _length_entry(at_b: bool, x: NDArray, z: NDArray, T: NDArray, w: NDArray,
         ints[0, k], ints[1, k] = INVALID, 0
         return 1
     code, H, V_B, V_A, L0, its = _length_values(at_b, xk, zk, Tk, wk, 1.0 / EAk, rtol,
-                                                max_iter)
+                                                max_iter, True)
     ints[0, k], ints[1, k] = code, its
     out[0, k], out[1, k], out[2, k], out[3, k] = H, V_B, V_A, L0
     return 0 if code == CONVERGED else 1
@@ -433,7 +487,7 @@ def _forces_values(x: float, z: float, L0: float, w: float, inv_EA: float, rtol:
     H, V = H * F, V * F
     if not (math.isfinite(H) and math.isfinite(V) and H >= 0.0):
         return FALLBACK, nan, nan, its
-    xc, zc, _, _, _, _, _, _ = spans_one(H, V, L0, w, inv_EA)
+    xc, zc = _spans(H, V, L0, w, inv_EA)[:2]
     tol = RES_TOL * c
     if not (abs(xc - x) <= tol and abs(zc - z) <= tol):
         return FALLBACK, nan, nan, its

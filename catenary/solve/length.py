@@ -160,8 +160,9 @@ def _scaled_length(
     st = np.where(conv, CONVERGED, NOT_CONVERGED).astype(STATUS_DTYPE)
     f = np.flatnonzero(~conv & (w > 0))
     if f.size:
-        Hf, Vf, Lf, stf, itf = bracket_length(end, x[f], z[f], T[f], w[f], inv_EA[f])
-        its[f] += itf
+        # The search's inner iterations are not counted: the compiled kernels reach
+        # the same roots by another search (catenary.solve.kernels_bracket).
+        Hf, Vf, Lf, stf, _ = bracket_length(end, x[f], z[f], T[f], w[f], inv_EA[f])
         H[f], V[f], V_A[f], L[f], st[f], itp = polish_length(
             end, x[f], z[f], T[f], w[f], inv_EA[f], Hf, Vf, Lf, stf, rtol, max_iter
         )
@@ -224,6 +225,7 @@ def _solve_length_flat(
     unsolved = status != CONVERGED
     if unsolved.any():
         H[unsolved], V[unsolved], V_A[unsolved], L[unsolved] = np.nan, np.nan, np.nan, np.nan
+        its[status == INFEASIBLE] = 0  # no answer to count steps towards (any path)
     return H, V, V_A, L, its, status
 
 
@@ -266,9 +268,9 @@ def solve_length(
     -------
     LengthResult
         ``.L0`` (m) and the end forces, arrays of the broadcast input shape.
-        Where two catenaries have the prescribed end tension, the taut one
-        (shorter, larger H) is returned; where none has, status is
-        ``"infeasible"`` and the values are NaN.
+        Where two catenaries have the prescribed end tension, the taut one (shorter,
+        larger H) is returned; where none has, status is ``"infeasible"``, the values
+        NaN and the iterations 0 (they count Newton steps, not bracketing ones).
 
     Raises
     ------
@@ -328,15 +330,17 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
         codes = ints[0]
         if np.any(codes == kernels.INVALID):
             return None  # the numpy checks raise the package's error
-        redo = np.flatnonzero(codes != kernels.CONVERGED)
-        with np.errstate(all="ignore"):
-            H, V, V_A, L, its, st = _solve_length_flat(
-                end, take(xf, redo), take(zf, redo), take(tf, redo), take(wf, redo),
-                take(ef, redo), rtol, max_iter)
-        out[0, redo], out[1, redo], out[2, redo], out[3, redo] = H, V, V_A, L
-        ints[1, redo] = its
         status = all_converged(n)
-        status[redo] = st
+        status[codes == kernels.INFEASIBLE] = INFEASIBLE
+        redo = np.flatnonzero((codes != kernels.CONVERGED) & (codes != kernels.INFEASIBLE))
+        if redo.size:
+            with np.errstate(all="ignore"):
+                H, V, V_A, L, its, st = _solve_length_flat(
+                    end, take(xf, redo), take(zf, redo), take(tf, redo), take(wf, redo),
+                    take(ef, redo), rtol, max_iter)
+            out[0, redo], out[1, redo], out[2, redo], out[3, redo] = H, V, V_A, L
+            ints[1, redo] = its
+            status[redo] = st
         converged = status == CONVERGED
     else:
         status, converged = all_converged(n), np.ones(n, dtype=bool)
