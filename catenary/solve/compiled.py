@@ -9,21 +9,26 @@ from __future__ import annotations
 import math
 import os
 import threading
+from collections.abc import Callable
 from types import ModuleType
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .common import CONVERGED, STATUS_DTYPE, FloatArray
 
-__all__ = ["all_converged", "flat_arguments", "load_kernels", "new_result", "run_cables", "take"]
+__all__ = ["all_converged", "all_true", "flat_arguments", "load_kernels", "new_result",
+           "run_cables", "take"]
 
 T = TypeVar("T")
 
 _KERNELS: list[ModuleType] = []
+_F64 = np.dtype(np.float64)
 #: Statuses of cables that all converged, copied from (grown on demand).
 _CONVERGED_ROW: list[NDArray[np.str_]] = [np.full(64, CONVERGED, dtype=STATUS_DTYPE)]
+#: ``True`` entries to copy ``converged`` masks from (grown on demand).
+_TRUE_ROW: list[NDArray[np.bool_]] = [np.ones(64, dtype=bool)]
 
 
 #: One parallel launch at a time: numba's "workqueue" layer aborts the process on two
@@ -38,12 +43,36 @@ os.register_at_fork(after_in_child=lambda: _FORKED.__setitem__(0, True))
 def run_cables(name: str, n: int, *args: object) -> int:
     """Kernel ``name`` of :mod:`catenary.solve.kernels` over ``n`` cables: its parallel
     variant (one launch at a time) from ``PARALLEL_FROM`` cables in a process that is no
-    forked child, else the serial one (which starts no threading layer)."""
+    forked child, else the serial one (which starts no threading layer).
+
+    Every array in ``args`` is C-contiguous with the dtype of its kind (the flat float64
+    arguments of :func:`flat_arguments`, the result arrays the callers allocate), so
+    the serial kernel is called through its entry point (:func:`_entry`)."""
     kernels = load_kernels()
     if n >= kernels.PARALLEL_FROM and not _FORKED[0]:
         with _LAUNCH:
             return getattr(kernels, f"{name}_parallel")(*args)
-    return getattr(kernels, name)(*args)
+    entry = _ENTRIES.get(name)
+    if entry is None:
+        entry = _ENTRIES[name] = _entry(getattr(kernels, name), args)
+    return entry(*args)
+
+
+#: Entry points of the serial kernels, by name (:func:`_entry`).
+_ENTRIES: dict[str, Callable[..., int]] = {}
+
+
+def _entry(kernel: Any, args: tuple[object, ...]) -> Callable[..., int]:
+    """The machine code of ``kernel`` for writable C-contiguous arrays of the dtypes
+    and dimensions of ``args`` (and its scalars' types), called without numba's type
+    dispatch: for a few cables that dispatch costs as much as the solves. It checks no
+    type, hence the contract of :func:`run_cables` on its arguments (a read-only array
+    only read by the kernel is fine)."""
+    import numba
+
+    examples = [np.zeros((1,) * a.ndim, dtype=a.dtype) if isinstance(a, np.ndarray) else a
+                for a in args]
+    return kernel.compile(tuple(numba.typeof(a) for a in examples))
 
 
 def load_kernels() -> ModuleType:
@@ -71,7 +100,8 @@ def flat_arguments(*args: ArrayLike) -> tuple[tuple[int, ...], int, list[FloatAr
         One contiguous float array per argument, of ``n`` entries or of one (an
         argument with a single value, not broadcast: the kernels read entry 0).
     """
-    arrays = [np.asarray(a, dtype=np.float64) for a in args]
+    arrays = [a if type(a) is np.ndarray and a.dtype is _F64 else np.asarray(a, dtype=_F64)
+              for a in args]
     # Arrays of one shape and scalars (the usual call) skip numpy's broadcast_shapes,
     # whose cost is that of solving several cables.
     shape: tuple[int, ...] = ()
@@ -89,7 +119,9 @@ def flat_arguments(*args: ArrayLike) -> tuple[tuple[int, ...], int, list[FloatAr
         return None
     flat = []
     for a in arrays:
-        if a.size == 1:
+        if a.ndim == 1 and a.shape == shape and a.flags.c_contiguous:
+            flat.append(a)  # the usual argument, as it is
+        elif a.size == 1:
             flat.append(a.reshape(1))
         elif a.shape == shape:
             flat.append(a.ravel())  # a view of contiguous data, else a contiguous copy
@@ -119,4 +151,14 @@ def all_converged(n: int) -> NDArray[np.str_]:
     if row.size < n:
         row = np.full(max(n, 2 * row.size), CONVERGED, dtype=STATUS_DTYPE)
         _CONVERGED_ROW[0] = row
+    return row[:n].copy()
+
+
+def all_true(n: int) -> NDArray[np.bool_]:
+    """A boolean array of ``n`` entries, all True (a fresh copy; ``np.ones`` costs
+    several times as much for a few cables)."""
+    row = _TRUE_ROW[0]
+    if row.size < n:
+        row = np.ones(max(n, 2 * row.size), dtype=bool)
+        _TRUE_ROW[0] = row
     return row[:n].copy()

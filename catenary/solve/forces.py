@@ -32,7 +32,15 @@ from .common import (
     selection,
     status_array,
 )
-from .compiled import all_converged, flat_arguments, load_kernels, new_result, run_cables, take
+from .compiled import (
+    all_converged,
+    all_true,
+    flat_arguments,
+    load_kernels,
+    new_result,
+    run_cables,
+    take,
+)
 
 __all__ = ["solve_forces", "solve_forces_flat"]
 
@@ -505,10 +513,10 @@ def _compiled_forces(x: ArrayLike, z: ArrayLike, L0: ArrayLike, w: ArrayLike,
         ints[1, redo] = its
         status = all_converged(n)
         status[redo] = st
-        converged = np.ones(n, dtype=bool)
+        converged = all_true(n)
         converged[redo] = conv
     else:
-        status, converged = all_converged(n), np.ones(n, dtype=bool)
+        status, converged = all_converged(n), all_true(n)
     H, V_B, V_A, its = out[0], out[1], out[2], ints[1]
     if len(shape) != 1:
         H, V_B, V_A, its, converged, status = (

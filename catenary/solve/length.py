@@ -47,7 +47,15 @@ from .common import (
     selection,
     status_array,
 )
-from .compiled import all_converged, flat_arguments, load_kernels, new_result, run_cables, take
+from .compiled import (
+    all_converged,
+    all_true,
+    flat_arguments,
+    load_kernels,
+    new_result,
+    run_cables,
+    take,
+)
 from .length_bracket import bracket_length, end_tension
 from .length_newton import newton_with_second_guess, polish_length
 
@@ -343,7 +351,7 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
             status[redo] = st
         converged = status == CONVERGED
     else:
-        status, converged = all_converged(n), np.ones(n, dtype=bool)
+        status, converged = all_converged(n), all_true(n)
     H, V_B, V_A, L0, its = out[0], out[1], out[2], out[3], ints[1]
     if len(shape) != 1:
         H, V_B, V_A, L0, its, converged, status = (

@@ -308,3 +308,28 @@ def test_compiled_thesis_ik_cache_and_the_cases_it_leaves():
     for _ in range(compiled_thesis.CACHE_SIZE + 2):  # the cache stays bounded
         compiled_thesis.thesis_solver(presets.algae_harvester(), "min_sum", "auto", {})
     assert len(compiled_thesis._CACHE) <= compiled_thesis.CACHE_SIZE
+
+
+def test_argument_types_reach_the_kernels_as_contiguous_float64():
+    """The serial kernels are called without numba's type checks: strided, read-only,
+    integer, list and scalar arguments must answer as contiguous float64 ones."""
+    x = np.array([40.0, 35.0, 30.0, 45.0, 12.0])
+    z = np.array([7.0, -7.5, 6.0, 8.0, 0.0])
+    T = np.array([3000.0, 2500.0, 4000.0, 3500.0, 800.0])
+    w, EA = 24.0, 2.0e6
+    ref = catenary.solve_length(x, z, T, w, EA)
+    assert ref.converged.all()
+    # Strided columns whose neighbours are valid data too: read as contiguous, they
+    # would be other cables, not rejected ones.
+    wide = np.column_stack([x, x + 1.0, z, z + 1.0, T, T + 100.0])
+    frozen = T.copy()
+    frozen.flags.writeable = False
+    for args in ((wide[:, 0], wide[:, 2], wide[:, 4], w, EA),  # strided columns
+                 (x, z, frozen, np.array(w), np.array([EA])),
+                 (list(x), z.tolist(), T, int(w), EA),
+                 (x[::-1][::-1], z, T, np.float64(w), EA)):
+        got = catenary.solve_length(*args)
+        for name in ("L0", "H", "V_A", "V_B", "iterations"):
+            np.testing.assert_array_equal(getattr(got, name), getattr(ref, name))
+        back = catenary.solve_forces(args[0], args[1], got.L0, args[3], args[4])
+        np.testing.assert_allclose(back.H, ref.H, rtol=1e-9)
