@@ -32,6 +32,7 @@ import tension_opt as to
 from catenary.realtime import PARALLEL_FROM, solve_forces_compiled, solve_length_compiled
 from tension_opt import presets
 from tension_opt.backends.closed_form import ClosedFormBackend
+from tension_opt.kernels.launch import PARALLEL_MIN
 
 __all__ = ["main"]
 
@@ -218,7 +219,7 @@ def batch_rows(count: int) -> None:
               f"({before / plain:.1f}x)")
         for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
             numba.set_num_threads(threads)
-            solver(poses[:5000])
+            solver(poses[:PARALLEL_MIN])  # loads the parallel kernel before timing it
             t0 = time.perf_counter()
             solver(poses)
             after = (time.perf_counter() - t0) / count * 1e9
