@@ -135,23 +135,24 @@ class CompiledThesis:
     def __init__(self, robot: tension_opt.CableRobot,
                  objective: str | TensionProblem = "min_sum", backend: str = "auto",
                  **options: Any) -> None:
-        self.w, self.EA = cable_data(robot)
+        w, self.EA = cable_data(robot)
+        self.w = float(w)
         self.robot = robot
         self.distributor = tension_opt.Distributor(robot, objective, backend, **options)
         self.kind = kind_code(robot.kind)
         self.anchors = np.ascontiguousarray(robot.anchors, dtype=float)
         self.attachments = np.ascontiguousarray(robot.attachments, dtype=float)
         self.com = np.ascontiguousarray(robot.com, dtype=float)
-        self.weight = robot.mass * robot.g
-        self.inv_EA = 0.0 if math.isinf(self.EA) else 1.0 / self.EA
+        self.weight = float(robot.mass * robot.g)
+        self.inv_EA = 0.0 if math.isinf(self.EA) else float(1.0 / self.EA)
         self.work = robot.dof * robot.m + 2 * robot.dof + 5
         self.no_wrench = np.zeros(robot.dof)
         m = robot.m
         # Called with exactly these types (contiguous float64 arrays, see solve).
         self._thesis_pose = entry_point(
-            thesis_pose, self.kind, self.anchors, self.attachments, self.com,
-            float(self.weight), self.no_wrench, self.no_wrench, np.zeros(m), float(self.w),
-            float(self.inv_EA), np.empty((7, m)), np.empty((m, 3)), np.empty(self.work))
+            thesis_pose, self.kind, self.anchors, self.attachments, self.com, self.weight,
+            self.no_wrench, self.no_wrench, np.zeros(m), self.w, self.inv_EA,
+            np.empty((7, m)), np.empty((m, 3)), np.empty(self.work))
 
     def solve(self, pose: NDArray, wrench: NDArray | None
               ) -> tuple[NDArray, NDArray, float] | None:
@@ -172,8 +173,8 @@ class CompiledThesis:
         w = self.no_wrench if wrench is None else wrench
         tensions = np.ascontiguousarray(straight.tensions, dtype=np.float64)
         solved, residual = self._thesis_pose(
-            self.kind, self.anchors, self.attachments, self.com, float(self.weight), pose, w,
-            tensions, float(self.w), float(self.inv_EA), out, forces, np.empty(self.work))
+            self.kind, self.anchors, self.attachments, self.com, self.weight, pose, w,
+            tensions, self.w, self.inv_EA, out, forces, np.empty(self.work))
         return (out, forces, residual) if solved else None
 
 

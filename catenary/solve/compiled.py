@@ -147,18 +147,20 @@ def take(a: FloatArray, idx: NDArray[np.intp]) -> FloatArray:
 
 def all_converged(n: int) -> NDArray[np.str_]:
     """A status array of ``n`` cables, all ``"converged"`` (a fresh copy)."""
-    row = _CONVERGED_ROW[0]
-    if row.size < n:
-        row = np.full(max(n, 2 * row.size), CONVERGED, dtype=STATUS_DTYPE)
-        _CONVERGED_ROW[0] = row
-    return row[:n].copy()
+    return _fresh(_CONVERGED_ROW, n)
 
 
 def all_true(n: int) -> NDArray[np.bool_]:
     """A boolean array of ``n`` entries, all True (a fresh copy; ``np.ones`` costs
     several times as much for a few cables)."""
-    row = _TRUE_ROW[0]
+    return _fresh(_TRUE_ROW, n)
+
+
+def _fresh(store: list[NDArray[Any]], n: int) -> NDArray[Any]:
+    """The first ``n`` entries of the row kept in ``store`` (whose entries are all
+    equal), copied; the row is grown, with the same value, when it is too short."""
+    row = store[0]
     if row.size < n:
-        row = np.ones(max(n, 2 * row.size), dtype=bool)
-        _TRUE_ROW[0] = row
+        row = np.full(max(n, 2 * row.size), row[0], dtype=row.dtype)
+        store[0] = row
     return row[:n].copy()
