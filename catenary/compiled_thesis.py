@@ -7,10 +7,12 @@ The straight-line distribution of the pose (a :class:`tension_opt.Distributor`) 
 each cable's tension, imposed at its drawing point on the taut catenary through both
 ends; one compiled call then does the cable planes, the four-to-eight taut catenaries
 (:func:`catenary.solve.kernels.solve_length_one`), the platform forces and the
-equilibrium residual. A pose whose straight-line distribution is not optimal, or one
-of whose cables the kernel leaves to the numpy path (vertical cable, degenerate limit,
-Newton not converging), is not answered here: the caller runs the numpy path, so the
-statuses are the numpy path's.
+equilibrium residual. Where the distributor answers by the compiled closed form,
+both steps are one compiled call (:func:`thesis_closed_form`): the distributor's
+Python wrapper costs as much as the arithmetic of a pose. A pose whose straight-line
+distribution is not optimal, or one of whose cables the kernel leaves to the numpy
+path (vertical cable, degenerate limit, Newton not converging), is not answered here:
+the caller runs the numpy path, so the statuses are the numpy path's.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from numpy.typing import NDArray
 
 import tension_opt
 from tension_opt.errors import TensionOptError
+from tension_opt.kernels.closed_form import solve_one
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, kind_code, rotation
 from tension_opt.kernels.launch import entry_point
 from tension_opt.problems import TensionProblem, as_problem
@@ -33,7 +36,8 @@ from .errors import CatenaryError
 from .geometry import cable_data
 from .solve.kernels import CONVERGED, solve_length_one
 
-__all__ = ["CACHE_SIZE", "CompiledThesis", "thesis_pose", "thesis_solver"]
+__all__ = ["CACHE_SIZE", "CompiledThesis", "thesis_closed_form", "thesis_pose",
+           "thesis_solver"]
 
 #: Distinct (robot, objective, backend, options) whose :class:`CompiledThesis` is kept.
 CACHE_SIZE = 8
@@ -97,6 +101,32 @@ def thesis_pose(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
 
 
 @njit(cache=True, error_model="numpy")
+def thesis_closed_form(data: NDArray, anchors: NDArray, attachments: NDArray,
+                       pose: NDArray, wrench: NDArray, no_prev: NDArray, w: float,
+                       inv_EA: float, out: NDArray, forces: NDArray, work: NDArray,
+                       tensions: NDArray) -> tuple[bool, float]:
+    """:func:`thesis_pose` of the tensions the compiled closed form
+    (:func:`tension_opt.kernels.closed_form.solve_one`) gives the pose, in one call.
+
+    ``data`` is the distributor's packed problem (:func:`~tension_opt.kernels.
+    closed_form.pack`), ``anchors`` and ``attachments`` (m, 3) its robot's,
+    ``no_prev`` (m,) any vector (the problem is not sequential). Written, with a
+    leading axis of one pose: ``out`` (7, 1, m) and ``forces`` (1, m, 3) as
+    :func:`thesis_pose`'s, ``tensions`` (1, m) the straight-line tensions (N).
+    ``work`` holds at least the closed form's work size and ``n m + 2 n + 5`` floats.
+    Returns ``(solved, equilibrium residual)``; not solved where the closed form's
+    status is not optimal (or it leaves the pose to the numpy path) or a catenary is
+    left to the numpy path.
+    """
+    T = tensions[0]
+    code = solve_one(data, pose, wrench, no_prev, False, work, T)[0]
+    if code != 0:
+        return False, np.nan
+    return thesis_pose(int(data[0]), anchors, attachments, data[8:11], data[3], pose,
+                       wrench, T, w, inv_EA, out[:, 0, :], forces[0], work)
+
+
+@njit(cache=True, error_model="numpy")
 def _add_wrench(kind: int, total: NDArray, f0: float, f1: float, f2: float, m0: float,
                 m1: float, m2: float) -> None:
     """Add the rows of a cable's wrench that the kind keeps (as ``pattern.select``)."""
@@ -153,15 +183,37 @@ class CompiledThesis:
             thesis_pose, self.kind, self.anchors, self.attachments, self.com, self.weight,
             self.no_wrench, self.no_wrench, np.zeros(m), self.w, self.inv_EA,
             np.empty((7, m)), np.empty((m, 3)), np.empty(self.work))
+        # The closed form and the catenaries in one compiled call, where they apply.
+        self._data = self.distributor.closed_form_data
+        self._fused = None
+        if self._data is not None:
+            from tension_opt.kernels.closed_form import work_size
+
+            self.work = max(self.work, int(work_size(m, robot.dof)))
+            self._no_prev = np.zeros(m)
+            self._fused = entry_point(
+                thesis_closed_form, self._data, self.anchors, self.attachments,
+                self.no_wrench, self.no_wrench, self._no_prev, self.w, self.inv_EA,
+                np.empty((7, 1, m)), np.empty((1, m, 3)), np.empty(self.work),
+                np.empty((1, m)))
 
     def solve(self, pose: NDArray, wrench: NDArray | None
               ) -> tuple[NDArray, NDArray, float] | None:
         """``(out, forces, residual)`` of one pose (n,) as :func:`thesis_pose` fills
-        them, with an external wrench (n,) or None; None where the numpy path decides
+        them, with a leading axis of one pose (``out`` (7, 1, m), ``forces`` (1, m, 3)),
+        with an external wrench (n,) or None; None where the numpy path decides
         (straight-line distribution not optimal, a cable the kernel leaves, weightless
         cables, data the distributor rejects)."""
         if self.w <= 0.0:
             return None
+        if self._fused is not None:
+            m = self.robot.m
+            out, forces, tensions = np.empty((7, 1, m)), np.empty((1, m, 3)), np.empty((1, m))
+            w = self.no_wrench if wrench is None else wrench
+            solved, residual = self._fused(
+                self._data, self.anchors, self.attachments, pose, w, self._no_prev, self.w,
+                self.inv_EA, out, forces, np.empty(self.work), tensions)
+            return (out, forces, residual) if solved else None
         try:
             straight = self.distributor(pose, wrench)
         except TensionOptError:
@@ -175,7 +227,7 @@ class CompiledThesis:
         solved, residual = self._thesis_pose(
             self.kind, self.anchors, self.attachments, self.com, self.weight, pose, w,
             tensions, self.w, self.inv_EA, out, forces, np.empty(self.work))
-        return (out, forces, residual) if solved else None
+        return (out[:, None], forces[None], residual) if solved else None
 
 
 def thesis_solver(robot: tension_opt.CableRobot, objective: Any, backend: Any,

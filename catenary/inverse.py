@@ -348,11 +348,10 @@ def thesis_result(solver: CompiledThesis | None, pose: ArrayLike, wrench: ArrayL
         return None
     out, forces, residual = got
     return new_result(
-        InverseKinematicsResult, lengths=out[0][None], straight_lengths=out[4][None],
-        tensions=out[1][None],
-        tensions_platform=out[2][None], horizontal_tensions=out[3][None],
-        platform_forces=forces[None], equilibrium_residual=np.array([residual]),
-        iterations=_NO_ITERATIONS.copy(), catenary_iterations=out[5][None].astype(np.int64),
+        InverseKinematicsResult, lengths=out[0], straight_lengths=out[4],
+        tensions=out[1], tensions_platform=out[2], horizontal_tensions=out[3],
+        platform_forces=forces, equilibrium_residual=np.array([residual]),
+        iterations=_NO_ITERATIONS.copy(), catenary_iterations=out[5].astype(np.int64),
         status=_ONE_CONVERGED.copy(), model="thesis",
         solve_time=time.perf_counter() - start)
 

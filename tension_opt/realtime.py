@@ -212,6 +212,14 @@ class Distributor:
         self._local.work = work
         return work
 
+    @property
+    def closed_form_data(self) -> NDArray | None:
+        """The packed problem (:func:`tension_opt.kernels.closed_form.pack`) of a
+        distributor that answers by the compiled closed form, for compiled callers
+        that call :func:`~tension_opt.kernels.closed_form.solve_one` themselves; None
+        for the other paths. Read only."""
+        return self._data if self._daqp is None else None
+
     # ------------------------------------------------------------------- calls
     def reset(self) -> None:
         """Forget the last answer of this thread's stream (the next smoothed pose is

@@ -292,6 +292,8 @@ def test_compiled_thesis_ik_cache_and_the_cases_it_leaves():
     first = compiled_thesis.thesis_solver(robot, "min_sum", "auto", {})
     assert first is not None and compiled_thesis.thesis_solver(robot, "min_sum", "auto",
                                                                {}) is first
+    # The closed form and the catenaries answer in one compiled call.
+    assert first._fused is not None and first.solve(pose, None) is not None
     assert compiled_thesis.thesis_solver(robot, "min_norm", "auto", {}) is not first
     assert compiled_thesis.thesis_solver(robot, "min_sum", "scipy:highs", {}) is None
     smooth = to.TensionProblem("min_norm", smoothing=1.0)
