@@ -401,7 +401,8 @@ class CableRobot:
                     f"wrench must have shape ({self.dof},) or ({p.shape[0]}, {self.dof}), "
                     f"got {np.shape(wrench)}"
                 ) from None
-            b = b - w
+            with np.errstate(over="ignore", invalid="ignore"):  # the error below says it
+                b = b - w
             if not np.isfinite(b).all():
                 raise InvalidInputError(f"wrench overflows when added to gravity: {wrench!r}"[:300])
         return b
