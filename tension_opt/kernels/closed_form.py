@@ -256,24 +256,43 @@ def solve_one(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
         :data:`CODE_FALLBACK` (the numpy path decides) or :data:`CODE_BAD_INPUT` (a
         pose or wrench that is not finite).
     """
+    anchors, attachments, terms, A = _views(data, work)
+    return _solve_viewed(data, anchors, attachments, terms, A, pose, wrench, prev,
+                         has_prev, work, T)
+
+
+@njit(cache=True, error_model="numpy")
+def _views(data: NDArray, work: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """The 2-D views of :func:`solve_one`'s data and work space: anchors and
+    attachments (m, 3), the objective's terms (6, m) and the structure matrix (n, m).
+    Made once per call or batch chunk: a reshaped view costs about as much as the
+    arithmetic of a pose."""
+    m, n = int(data[1]), int(data[2])
+    return (data[HEADER:HEADER + 3 * m].reshape((m, 3)),
+            data[HEADER + 3 * m:HEADER + 6 * m].reshape((m, 3)),
+            data[HEADER + 6 * m:HEADER + 12 * m].reshape((6, m)),
+            work[:n * m].reshape((n, m)))
+
+
+@njit(cache=True, error_model="numpy")
+def _solve_viewed(data: NDArray, anchors: NDArray, attachments: NDArray, terms: NDArray,
+                  A: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
+                  has_prev: bool, work: NDArray, T: NDArray
+                  ) -> tuple[int, bool, float, float]:
+    """:func:`solve_one` with the views of :func:`_views` (``A`` a view of ``work``)."""
     kind, m, n = int(data[0]), int(data[1]), int(data[2])
     for i in range(n):
         if not (math.isfinite(pose[i]) and math.isfinite(wrench[i])):
             return CODE_BAD_INPUT, True, np.nan, np.nan
-    com = data[8:HEADER]
-    anchors = data[HEADER:HEADER + 3 * m].reshape((m, 3))
-    attachments = data[HEADER + 3 * m:HEADER + 6 * m].reshape((m, 3))
-    terms = data[HEADER + 6 * m:HEADER + 12 * m].reshape((6, m))
-    A = work[:n * m].reshape((n, m))
     b = work[n * m:n * m + n]
     o = n * m + n
     q, c, lb, ub = work[o:o + m], work[o + m:o + 2 * m], work[o + 2 * m:o + 3 * m], \
         work[o + 3 * m:o + 4 * m]
-    if geometry_into(kind, anchors, attachments, com, data[3], data[4], pose, wrench, A,
-                     b) != GEOMETRY_OK:
+    if geometry_into(kind, anchors, attachments, data[8:HEADER], data[3], data[4], pose,
+                     wrench, A, b) != GEOMETRY_OK:
         return CODE_FALLBACK, True, np.nan, np.nan
     form_terms(terms[0], terms[1], terms[3], terms[4], data[5], terms[5], prev, has_prev,
-           q, c, lb, ub)
+               q, c, lb, ub)
     minmax, rest = data[7] != 0.0, work[o + 4 * m:]
     if n == 3 and m == 4 and not minmax:  # as the numpy path: its shortcut first
         quadratic = False
@@ -293,10 +312,12 @@ def _batch_chunk(j: int, data: NDArray, poses: NDArray, wrenches: NDArray, prev:
     """Chunk ``j`` (:data:`CHUNK` poses) of :func:`solve_batch`, with its own work space."""
     N, m, n = poses.shape[0], int(data[1]), int(data[2])
     work = np.empty(work_size(m, n))
+    anchors, attachments, terms, A = _views(data, work)
     for k in range(j * CHUNK, min(N, (j + 1) * CHUNK)):
         w = wrenches[k] if wrenches.shape[0] > 1 else wrenches[0]
         p = prev[k] if prev.shape[0] > 1 else prev[0]
-        code, unique, res, infeas = solve_one(data, poses[k], w, p, has_prev, work, T[k])
+        code, unique, res, infeas = _solve_viewed(data, anchors, attachments, terms, A,
+                                                  poses[k], w, p, has_prev, work, T[k])
         codes[k] = code
         info[k, 0], info[k, 1], info[k, 2] = 1.0 if unique else 0.0, res, infeas
 
@@ -330,9 +351,11 @@ def solve_sequence(data: NDArray, poses: NDArray, wrenches: NDArray, last: NDArr
     tensions (``last`` (m,), updated in place; unsmoothed while there are none).
     Stops at a pose that needs the numpy path and returns its index (N when done).
     ``wrenches`` (N, n) or (1, n)."""
+    anchors, attachments, terms, A = _views(data, work)
     for k in range(start, poses.shape[0]):
         w = wrenches[k] if wrenches.shape[0] > 1 else wrenches[0]
-        code, unique, res, infeas = solve_one(data, poses[k], w, last, has_last, work, T[k])
+        code, unique, res, infeas = _solve_viewed(data, anchors, attachments, terms, A,
+                                                  poses[k], w, last, has_last, work, T[k])
         codes[k] = code
         info[k, 0], info[k, 1], info[k, 2] = 1.0 if unique else 0.0, res, infeas
         if code >= CODE_BAD_INPUT:
@@ -378,21 +401,22 @@ def point4(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
     coplanar, no feasible tension, or a cable that does not move along the null
     vector are not settled (the general path answers them). ``work``: 17 floats."""
     u = A  # columns u_i = A[:, i]
-    # C_j: u2 x u3, u3 x u1, u1 x u2 (cables 1-3 counted from one), one per row.
-    C = work[:9].reshape((3, 3))
+    # C_j: u2 x u3, u3 x u1, u1 x u2 (cables 1-3 counted from one), one per row (C
+    # flat in work: a reshaped view costs more than these products).
+    C = work[:9]
     for j in range(3):
         a, e = (j + 1) % 3, (j + 2) % 3
-        C[j, 0] = u[1, a] * u[2, e] - u[2, a] * u[1, e]
-        C[j, 1] = u[2, a] * u[0, e] - u[0, a] * u[2, e]
-        C[j, 2] = u[0, a] * u[1, e] - u[1, a] * u[0, e]
-    det = u[0, 0] * C[0, 0] + u[1, 0] * C[0, 1] + u[2, 0] * C[0, 2]
+        C[3 * j] = u[1, a] * u[2, e] - u[2, a] * u[1, e]
+        C[3 * j + 1] = u[2, a] * u[0, e] - u[0, a] * u[2, e]
+        C[3 * j + 2] = u[0, a] * u[1, e] - u[1, a] * u[0, e]
+    det = u[0, 0] * C[0] + u[1, 0] * C[1] + u[2, 0] * C[2]
     if not abs(det) > 1e-9:
         return False, True
     Tp, n = work[9:13], work[13:17]
     Tp[3] = 0.0
     for j in range(3):
-        Tp[j] = (b[0] * C[j, 0] + b[1] * C[j, 1] + b[2] * C[j, 2]) / det
-        n[j] = u[0, 3] * C[j, 0] + u[1, 3] * C[j, 1] + u[2, 3] * C[j, 2]
+        Tp[j] = (b[0] * C[3 * j] + b[1] * C[3 * j + 1] + b[2] * C[3 * j + 2]) / det
+        n[j] = u[0, 3] * C[3 * j] + u[1, 3] * C[3 * j + 1] + u[2, 3] * C[3 * j + 2]
     n[3] = -det
     top = max(max(abs(n[0]), abs(n[1])), max(abs(n[2]), abs(n[3])))
     lo, hi, nn = -np.inf, np.inf, 0.0
