@@ -10,7 +10,13 @@ machine code on disk (``cache=True``), so importing this package compiles nothin
 The one-pose kernels allocate nothing: their temporaries live in a work array the caller
 owns (one per thread; :func:`~tension_opt.kernels.closed_form.work_size`), each kernel
 taking its own arrays from the front of it and handing the rest to the kernels it calls.
-The batch kernels allocate one work array per chunk of poses.
+The batch kernels allocate one work array per chunk of poses, and make the reshaped
+views of it once per chunk (numba's ``reshape`` costs 15-30 ns, as much as the
+arithmetic of a pose). The small functions a per-pose loop calls (geometry, the
+four-cable closed form, its checks, the scaling and the pivoting solve) are compiled
+``inline="always"``: numba's call of a function taking arrays, and what it prevents
+the optimiser from seeing, cost more than their arithmetic (the study robot's
+per-pose loop ran twice as fast with them inlined).
 
 - :mod:`tension_opt.kernels.geometry`: structure matrix and required wrench of every
   robot kind;

@@ -127,7 +127,7 @@ def pack_problem(robot: Any, problem: Any, target: float) -> NDArray:
                 stacked)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def form_terms(q0: NDArray, c0: NDArray, lb0: NDArray, ub0: NDArray, smoothing: float,
            rate: NDArray, prev: NDArray, has_prev: bool, q: NDArray, c: NDArray,
            lb: NDArray, ub: NDArray) -> None:
@@ -144,7 +144,7 @@ def form_terms(q0: NDArray, c0: NDArray, lb0: NDArray, ub0: NDArray, smoothing: 
                 ub[i] = min(ub[i], prev[i] + rate[i])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def pose_scales(A: NDArray, b: NDArray, lb: NDArray) -> tuple[float, float]:
     """``(typical tension, tolerance scale)`` of the pose
     (:func:`~tension_opt.nullspace.typical_tension`, ``StandardForm.tolerance_scale``)."""
@@ -167,7 +167,7 @@ def pose_scales(A: NDArray, b: NDArray, lb: NDArray) -> tuple[float, float]:
     return typical, max(max(bn, top_lb), 1e-12)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def judge(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, T: NDArray, tol: float
            ) -> tuple[int, float]:
     """Status code (0 optimal, 3 inaccurate, 4 solver error) and equilibrium residual
@@ -274,7 +274,7 @@ def _views(data: NDArray, work: NDArray) -> tuple[NDArray, NDArray, NDArray, NDA
             work[:n * m].reshape((n, m)))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _solve_viewed(data: NDArray, anchors: NDArray, attachments: NDArray, terms: NDArray,
                   A: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
                   has_prev: bool, work: NDArray, T: NDArray
@@ -391,7 +391,7 @@ def _plain(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
     return True
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def point4(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
            quadratic: bool, T: NDArray, work: NDArray) -> tuple[bool, bool]:
     """Four cables, three equations (LP or QP): the numpy path's shortcut

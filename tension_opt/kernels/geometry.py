@@ -49,7 +49,7 @@ def kind_code(kind: str) -> int:
         ) from None
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def rotation(kind: int, pose: NDArray) -> tuple[float, float, float, float, float, float,
                                                 float, float, float]:
     """Rotation matrix of a pose, row by row (identity if the kind does not rotate)."""
@@ -73,7 +73,7 @@ def rotation(kind: int, pose: NDArray) -> tuple[float, float, float, float, floa
             2.0 * (xz - yw), 2.0 * (yz + xw), -x2 - y2 + z2 + w2)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _position(kind: int, pose: NDArray) -> tuple[float, float, float]:
     if kind == 1:
         return pose[0], 0.0, pose[1]
@@ -82,7 +82,7 @@ def _position(kind: int, pose: NDArray) -> tuple[float, float, float]:
     return pose[0], pose[1], pose[2]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _put(kind: int, M: NDArray, i: int, f0: float, f1: float, f2: float, f3: float,
          f4: float, f5: float) -> None:
     """Write the rows of a full wrench ``(f, m)`` that the kind keeps into column ``i``
@@ -99,7 +99,7 @@ def _put(kind: int, M: NDArray, i: int, f0: float, f1: float, f2: float, f3: flo
         M[3, i], M[4, i], M[5, i] = f3, f4, f5
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def geometry_into(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
                   weight: float, zero_length: float, pose: NDArray, wrench: NDArray,
                   A: NDArray, b: NDArray) -> int:

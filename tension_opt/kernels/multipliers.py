@@ -24,7 +24,7 @@ __all__ = ["batch_estimate", "solve_small"]
 _HUGE = np.finfo(np.float64).max
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def solve_small(H: NDArray, u: NDArray) -> bool:
     """Solve ``H v = u`` in place (``u`` becomes ``v``; ``H`` is overwritten) by
     Gaussian elimination with partial pivoting; False for a zero pivot."""

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 __all__ = ["batch_scaling", "pose_scaling", "safe_norm_of"]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def safe_norm_of(x: NDArray) -> float:
     """Euclidean norm of a vector without overflow or underflow of the squares (the
     entries are divided by the largest magnitude first); inf or NaN for a non-finite
@@ -42,7 +42,7 @@ def safe_norm_of(x: NDArray) -> float:
     return top * math.sqrt(total)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def pose_scaling(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
                  vmax: float, ub_share: float, row_floor: float, rows: NDArray
                  ) -> tuple[float, float, bool]:
