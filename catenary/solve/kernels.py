@@ -55,7 +55,7 @@ _G_SERIES = np.array([1 / 3, -3 / 10, 15 / 56, -35 / 144, 315 / 1408, -693 / 332
                       1001 / 5120, -6435 / 34816])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _poly(coeffs: NDArray, u2: float) -> float:
     acc = coeffs[-1]
     for k in range(coeffs.size - 2, -1, -1):
@@ -63,7 +63,7 @@ def _poly(coeffs: NDArray, u2: float) -> float:
     return acc
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _g(a: float) -> float:
     """``asinh(a) - a / sqrt(1 + a^2)`` without cancellation."""
     a2 = a * a
@@ -72,7 +72,7 @@ def _g(a: float) -> float:
     return math.asinh(a) - math.copysign(1.0, a) / math.sqrt(1.0 + 1.0 / a2)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _spans(H: float, V_B: float, L0: float, w: float, inv_EA: float
            ) -> tuple[float, float, float, float, float, float, float, float, bool, bool]:
     """The spans part of :func:`spans_one`: ``(x, z, V_A, T_A, T_B, rho, qm1, S,
@@ -103,7 +103,7 @@ def _spans(H: float, V_B: float, L0: float, w: float, inv_EA: float
     return x, z, V_A, T_A, T_B, rho, qm1, S, opposite, regular
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def spans_one(H: float, V_B: float, L0: float, w: float, inv_EA: float
               ) -> tuple[float, float, float, float, float, float, float, bool]:
     """Spans, flexibility and end tensions of one cable, ``(x, z, F_xx, F_xz, F_zz,
@@ -126,7 +126,7 @@ def spans_one(H: float, V_B: float, L0: float, w: float, inv_EA: float
     return x, z, base + F_xx, F_xz, base + F_zz, T_A, T_B, regular
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _clip(a: float, lo: float, hi: float) -> float:
     """``numpy.clip`` of one number (NaN stays NaN)."""
     if a != a:
@@ -134,7 +134,7 @@ def _clip(a: float, lo: float, hi: float) -> float:
     return min(max(a, lo), hi)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _nanmax(a: float, b: float) -> float:
     """``numpy.maximum`` of two numbers (NaN if either is)."""
     if a != a or b != b:
@@ -142,7 +142,7 @@ def _nanmax(a: float, b: float) -> float:
     return max(a, b)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _power_of_two(scale: float) -> float:
     """:func:`catenary.elastic.power_of_two` of one number: ``p <= |scale| < 2 p``,
     within ``[2**-1022, 2**1023]``."""
@@ -154,7 +154,7 @@ def _power_of_two(scale: float) -> float:
     return math.ldexp(1.0, math.frexp(a)[1] - 1)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _initial(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float
              ) -> tuple[float, float, float]:
     """Near-straight guess ``(p, q, L0)`` (``_initial_length`` of
@@ -175,7 +175,7 @@ def _initial(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float
     return p, q, L0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _newton_length(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float,
                    rtol: float, max_iter: int
                    ) -> tuple[float, float, float, bool, int, bool]:
@@ -187,7 +187,7 @@ def _newton_length(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: f
     return _newton_from(at_b, x, z, T, w, inv_EA, p, q, l0, rtol, max_iter)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _newton_from(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float,
                  p: float, q: float, l0: float, rtol: float, max_iter: int
                  ) -> tuple[float, float, float, bool, int, bool]:
@@ -244,7 +244,7 @@ def solve_length_one(at_b: bool, x: float, z: float, T: float, w: float, inv_EA:
     return code
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _length_values(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float,
                    rtol: float, max_iter: int, decide: bool
                    ) -> tuple[int, float, float, float, float, int]:
@@ -292,7 +292,7 @@ def _length_values(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: f
     return CONVERGED, H, V_B, V_A, l0, its
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _certified(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float,
                H: float, V_B: float, V_A: float, L0: float) -> bool:
     """The certificate of ``_certify_length`` (:mod:`catenary.solve.length`), in the
@@ -308,7 +308,7 @@ def _certified(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float
     return abs(xs - x) <= tol and abs(zs - z) <= tol
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _valid(x: float, z: float, third: float, w: float, EA: float, length: bool) -> bool:
     """The checks of :func:`catenary.solve.common.prepare`: ``x, w >= 0`` finite, ``z``
     finite, the tension ``>= 0`` finite (``length``) or ``L0 > 0`` finite, ``EA > 0``
@@ -351,7 +351,7 @@ def solve_length_cables_parallel(at_b: bool, x: NDArray, z: NDArray, T: NDArray,
     return unsettled
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _length_entry(at_b: bool, x: NDArray, z: NDArray, T: NDArray, w: NDArray,
                   EA: NDArray, rtol: float, max_iter: int, out: NDArray, ints: NDArray,
                   k: int) -> int:
