@@ -32,9 +32,9 @@ from numpy.typing import NDArray
 from .kernels_bracket import FEASIBLE, family_decision
 from .kernels_bracket import INFEASIBLE as NO_MEMBER
 
-__all__ = ["CONVERGED", "FALLBACK", "INFEASIBLE", "INVALID", "PARALLEL_FROM", "solve_forces_batch",
-           "solve_forces_cables", "solve_forces_cables_parallel", "solve_forces_one",
-           "solve_length_cables", "solve_length_cables_parallel",
+__all__ = ["CONVERGED", "FALLBACK", "INFEASIBLE", "INVALID", "PARALLEL_FROM", "hypot",
+           "solve_forces_batch", "solve_forces_cables", "solve_forces_cables_parallel",
+           "solve_forces_one", "solve_length_cables", "solve_length_cables_parallel",
            "solve_length_one", "solve_length_serial", "spans_one"]
 
 #: Codes of the solvers: certified, to be solved by the numpy path, invalid data, no
@@ -55,6 +55,22 @@ _G_SERIES = np.array([1 / 3, -3 / 10, 15 / 56, -35 / 144, 315 / 1408, -693 / 332
                       1001 / 5120, -6435 / 34816])
 
 
+#: Magnitudes between which ``sqrt(a * a + b * b)`` neither overflows nor loses the
+#: larger square to underflow (:func:`hypot`).
+_SQUARES_SAFE = (1e-150, 1e150)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def hypot(a: float, b: float) -> float:
+    """``sqrt(a^2 + b^2)`` as :func:`math.hypot` to rounding; a square root where the
+    squares are safe (the solves' nondimensional data always are), else libm's
+    ``hypot``, a call several times as long. NaN and inf as :func:`math.hypot`."""
+    big = max(abs(a), abs(b))
+    if _SQUARES_SAFE[0] < big < _SQUARES_SAFE[1]:
+        return math.sqrt(a * a + b * b)
+    return math.hypot(a, b)
+
+
 @njit(cache=True, error_model="numpy", inline="always")
 def _poly(coeffs: NDArray, u2: float) -> float:
     acc = coeffs[-1]
@@ -73,13 +89,19 @@ def _g(a: float) -> float:
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _spans(H: float, V_B: float, L0: float, w: float, inv_EA: float
+def _spans(H: float, V_B: float, L0: float, w: float, inv_EA: float, fast: bool
            ) -> tuple[float, float, float, float, float, float, float, float, bool, bool]:
     """The spans part of :func:`spans_one`: ``(x, z, V_A, T_A, T_B, rho, qm1, S,
-    opposite, regular)`` (``qm1`` only where not ``opposite``: it is not needed there)."""
+    opposite, regular)`` (``qm1`` only where not ``opposite``: it is not needed there).
+    ``fast``: the end tensions by :func:`hypot` (the length solve, on nondimensional
+    data), else by libm's (the force solve: near a taut inextensible cable its forces
+    follow the last bit of the tensions, and the numpy path's iterations with them)."""
     wL = w * L0
     V_A = V_B - wL
-    T_A, T_B = math.hypot(H, V_A), math.hypot(H, V_B)
+    if fast:
+        T_A, T_B = hypot(H, V_A), hypot(H, V_B)
+    else:
+        T_A, T_B = math.hypot(H, V_A), math.hypot(H, V_B)
     S, TS = V_A + V_B, T_A + T_B
     rho = S / (V_B * T_A + V_A * T_B)
     HL = H * L0
@@ -110,7 +132,16 @@ def spans_one(H: float, V_B: float, L0: float, w: float, inv_EA: float
     T_A, T_B, regular)`` (:func:`catenary.elastic.evaluate`); ``regular`` is False
     at the degenerate limits (vertical cable, ``|V_A + V_B| << H``), which the numpy
     path handles."""
-    x, z, V_A, T_A, T_B, rho, qm1, S, opposite, regular = _spans(H, V_B, L0, w, inv_EA)
+    return _spans_flex(H, V_B, L0, w, inv_EA, False)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _spans_flex(H: float, V_B: float, L0: float, w: float, inv_EA: float, fast: bool
+                ) -> tuple[float, float, float, float, float, float, float, bool]:
+    """:func:`spans_one`, the end tensions as :func:`_spans` computes them with
+    ``fast``."""
+    x, z, V_A, T_A, T_B, rho, qm1, S, opposite, regular = _spans(H, V_B, L0, w, inv_EA,
+                                                                  fast)
     TS, HL = T_A + T_B, H * L0
     TT, H2 = T_A * T_B, H * H
     F_xz = -HL * S / (TT * TS)
@@ -159,7 +190,7 @@ def _initial(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float
              ) -> tuple[float, float, float]:
     """Near-straight guess ``(p, q, L0)`` (``_initial_length`` of
     :mod:`catenary.solve.length_newton`)."""
-    c = math.hypot(x, z)
+    c = hypot(x, z)
     cos_t, sin_t = x / c, z / c
     Tm = _nanmax(T - 0.5 * w * z if at_b else T + 0.5 * w * z, 0.5 * T)
     t = 0.5 * w * x / Tm
@@ -192,12 +223,12 @@ def _newton_from(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: flo
                  p: float, q: float, l0: float, rtol: float, max_iter: int
                  ) -> tuple[float, float, float, bool, int, bool]:
     """:func:`_newton_length` from the start ``(p, q, l0)``."""
-    tol = RES_TOL * math.hypot(x, z)
+    tol = RES_TOL * hypot(x, z)
     for its in range(1, max_iter + 1):
         h = T * p
         v = T * q if at_b else T * q + w * l0
         va = v - w * l0 if at_b else T * q
-        xs, zs, fxx, fxz, fzz, ta, tb, regular = spans_one(h, v, l0, w, inv_EA)
+        xs, zs, fxx, fxz, fzz, ta, tb, regular = _spans_flex(h, v, l0, w, inv_EA, True)
         if not regular:
             return p, q, l0, False, its, False
         rx, rz = xs - x, zs - z
@@ -258,7 +289,7 @@ def _length_values(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: f
     if not (x > 0.0 and T > 0.0 and 0.0 <= w < np.inf and 0.0 <= inv_EA < np.inf
             and math.isfinite(x) and math.isfinite(z) and math.isfinite(T)):
         return FALLBACK, nan, nan, nan, nan, 0  # the numpy path decides
-    ell, F = _power_of_two(math.hypot(x, z)), _power_of_two(T)
+    ell, F = _power_of_two(hypot(x, z)), _power_of_two(T)
     xs, zs, Ts = x / ell, z / ell, T / F
     ws, ies = (w / F) * ell, inv_EA * F
     if not math.isfinite(ws * ies):
@@ -297,14 +328,14 @@ def _certified(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float
                H: float, V_B: float, V_A: float, L0: float) -> bool:
     """The certificate of ``_certify_length`` (:mod:`catenary.solve.length`), in the
     nondimensional units of the solve (the same test: the units are powers of two)."""
-    got = math.hypot(H, V_B) if at_b else math.hypot(H, V_A)
+    got = hypot(H, V_B) if at_b else hypot(H, V_A)
     if not (abs(got - T) <= T_TOL * T and math.isfinite(V_A)):
         return False
     if not (math.isfinite(H) and math.isfinite(V_B) and math.isfinite(L0) and H >= 0
             and L0 > 0):
         return False
-    xs, zs = _spans(H, V_B, L0, w, inv_EA)[:2]
-    tol = RES_TOL * math.hypot(x, z)
+    xs, zs = _spans(H, V_B, L0, w, inv_EA, True)[:2]
+    tol = RES_TOL * hypot(x, z)
     return abs(xs - x) <= tol and abs(zs - z) <= tol
 
 
@@ -487,7 +518,7 @@ def _forces_values(x: float, z: float, L0: float, w: float, inv_EA: float, rtol:
     H, V = H * F, V * F
     if not (math.isfinite(H) and math.isfinite(V) and H >= 0.0):
         return FALLBACK, nan, nan, its
-    xc, zc = _spans(H, V, L0, w, inv_EA)[:2]
+    xc, zc = _spans(H, V, L0, w, inv_EA, False)[:2]
     tol = RES_TOL * c
     if not (abs(xc - x) <= tol and abs(zc - z) <= tol):
         return FALLBACK, nan, nan, its
