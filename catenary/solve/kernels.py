@@ -378,11 +378,14 @@ def solve_length_cables_parallel(at_b: bool, x: NDArray, z: NDArray, T: NDArray,
     process could not use)."""
     unsettled = 0
     for k in prange(out.shape[1]):
-        unsettled += _length_entry(at_b, x, z, T, w, EA, rtol, max_iter, out, ints, k)
+        # An int64 index: the serial kernel's compiled _length_entry serves (a prange
+        # index is unsigned, and compiling another costs seconds).
+        unsettled += _length_entry(at_b, x, z, T, w, EA, rtol, max_iter, out, ints,
+                                   np.int64(k))
     return unsettled
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _length_entry(at_b: bool, x: NDArray, z: NDArray, T: NDArray, w: NDArray,
                   EA: NDArray, rtol: float, max_iter: int, out: NDArray, ints: NDArray,
                   k: int) -> int:
@@ -548,7 +551,7 @@ def solve_forces_cables_parallel(x: NDArray, z: NDArray, L0: NDArray, w: NDArray
     """:func:`solve_forces_cables` over threads (see :func:`solve_length_cables_parallel`)."""
     unsettled = 0
     for k in prange(out.shape[1]):
-        unsettled += _forces_entry(x, z, L0, w, EA, rtol, max_iter, out, ints, k)
+        unsettled += _forces_entry(x, z, L0, w, EA, rtol, max_iter, out, ints, np.int64(k))
     return unsettled
 
 

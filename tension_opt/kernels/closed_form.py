@@ -332,7 +332,9 @@ def solve_batch(data: NDArray, poses: NDArray, wrenches: NDArray, prev: NDArray,
     (N,) written. Work space is allocated once per chunk of :data:`CHUNK` poses.
     """
     for j in prange((poses.shape[0] + CHUNK - 1) // CHUNK):
-        _batch_chunk(j, data, poses, wrenches, prev, has_prev, T, info, codes)
+        # An int64 index, as the serial kernel's: one compiled chunk serves both (a
+        # prange index is unsigned, and compiling another costs seconds).
+        _batch_chunk(np.int64(j), data, poses, wrenches, prev, has_prev, T, info, codes)
 
 
 @njit(cache=True, error_model="numpy")
@@ -514,7 +516,7 @@ def solve_forms(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c:
     """
     chunks = (A.shape[0] + CHUNK - 1) // CHUNK
     for j in prange(chunks):
-        _forms_chunk(j, A, b, lb, ub, q, c, v, minmax, quadratic, tol_factor, T, info,
+        _forms_chunk(np.int64(j), A, b, lb, ub, q, c, v, minmax, quadratic, tol_factor, T, info,
                      codes)
 
 
