@@ -27,6 +27,10 @@ from benchmarks.cli import main
 from benchmarks.scenarios import PROBLEMS, SCENARIOS
 from benchmarks.store import ResultsStore, StoreError
 
+# The runs in subprocesses load the kernels from numba's disk cache, filled here first:
+# their timeouts are for the runs, not for a cold compilation.
+pytestmark = pytest.mark.usefixtures("compiled_kernels")
+
 ROOT = Path(__file__).resolve().parents[2]
 COMMITTED = ROOT / "benchmarks" / "results"
 TRIALS = 3
