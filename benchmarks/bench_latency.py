@@ -18,12 +18,14 @@ cache) is measured in fresh processes.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import importlib
 import os
 import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
@@ -32,6 +34,7 @@ import tension_opt as to
 from catenary.realtime import PARALLEL_FROM, solve_forces_compiled, solve_length_compiled
 from tension_opt import presets
 from tension_opt.backends.closed_form import ClosedFormBackend
+from tension_opt.distribute import chunk_threads
 from tension_opt.kernels.launch import PARALLEL_MIN
 
 __all__ = ["main"]
@@ -191,6 +194,18 @@ def catenary_rows() -> None:
     ratio(before, after)
 
 
+@contextlib.contextmanager
+def _chunk_threads(threads: int) -> Iterator[None]:
+    """``distribute`` with its chunks on ``threads`` threads (default: numba's count)."""
+    module = importlib.import_module("tension_opt.distribute")
+    saved = module.chunk_threads
+    module.chunk_threads = lambda: threads
+    try:
+        yield
+    finally:
+        module.chunk_threads = saved
+
+
 def batch_rows(count: int) -> None:
     """Closed-form min-sum over many feasible and infeasible poses; solve_length over
     many cables; wall time per pose on one and on all threads."""
@@ -212,11 +227,13 @@ def batch_rows(count: int) -> None:
         to.distribute(robot, poses, "min_sum", ClosedFormBackend(compiled=False))
         before = (time.perf_counter() - t0) / count * 1e9
         print(f"  {label:<11s} before: distribute, numpy closed form {before:10.1f} ns/pose")
-        t0 = time.perf_counter()
-        to.distribute(robot, poses, "min_sum", "closed_form")
-        plain = (time.perf_counter() - t0) / count * 1e9
-        print(f"  {label:<11s} plain call: distribute (compiled) {plain:10.1f} ns/pose  "
-              f"({before / plain:.1f}x)")
+        for threads in sorted({1, chunk_threads()}):
+            with _chunk_threads(threads):
+                t0 = time.perf_counter()
+                to.distribute(robot, poses, "min_sum", "closed_form")
+                plain = (time.perf_counter() - t0) / count * 1e9
+            print(f"  {label:<11s} plain call: distribute (compiled), {threads} thread(s) "
+                  f"{plain:10.1f} ns/pose  ({before / plain:.1f}x)")
         for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
             numba.set_num_threads(threads)
             solver(poses[:PARALLEL_MIN])  # loads the parallel kernel before timing it

@@ -5,7 +5,9 @@ from __future__ import annotations
 import operator
 import re
 import time
+from collections import deque
 from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import fields, is_dataclass, replace
 from typing import Any
 
@@ -150,22 +152,55 @@ def _distribute_chunks(robot: CableRobot, p: NDArray, problem: TensionProblem,
     per_pose = {name: cut for name in ("t_min", "t_max", "reference")
                 if (cut := _pose_rows(name, getattr(problem, name), N, m)) is not None}
     joined = _Joined(N)
-    last = prev
     count = -(-N // size)  # chunks of equal length (to one pose), none of a few poses
-    for k in range(count):
-        start = k * N // count
-        sl = slice(start, (k + 1) * N // count)
+    slices = [slice(k * N // count, (k + 1) * N // count) for k in range(count)]
+
+    def solve(sl: slice, last: NDArray | None) -> tuple[TensionSolution, NDArray | None]:
         part = problem.with_(**{name: cut(sl) for name, cut in per_pose.items()}
                              ) if per_pose else problem
         try:
-            sol, after = _distribute_batch(
+            return _distribute_batch(
                 robot, p[sl], part, backend, None if w_rows is None else w_rows(sl),
                 last if chained else (None if prev_rows is None else prev_rows(sl)), options)
         except InvalidInputError as error:
-            raise _renumbered(error, start) from None
-        joined.add(sol, sl)
-        last = after if chained else None
+            raise _renumbered(error, sl.start) from None
+
+    sol, last = solve(slices[0], prev)
+    joined.add(sol, slices[0])
+    workers = chunk_threads()
+    if chained or workers < 2 or sol.backend != "closed_form":
+        for sl in slices[1:]:
+            sol, after = solve(sl, last)
+            joined.add(sol, sl)
+            last = after if chained else None
+        return joined.solution(problem)
+    # Independent poses on the compiled closed form: its kernels release the GIL, so
+    # chunks run side by side in threads; at most ``workers`` are in flight (bounded
+    # memory) and they join in order (the result of the serial loop).
+    with ThreadPoolExecutor(workers) as pool:
+        pending: deque[tuple[slice, Future[tuple[TensionSolution, NDArray | None]]]] = deque()
+        try:
+            for sl in slices[1:]:
+                pending.append((sl, pool.submit(solve, sl, None)))
+                if len(pending) >= workers:
+                    done, future = pending.popleft()
+                    joined.add(future.result()[0], done)
+            while pending:
+                done, future = pending.popleft()
+                joined.add(future.result()[0], done)
+        finally:
+            for _, future in pending:
+                future.cancel()
     return joined.solution(problem)
+
+
+def chunk_threads() -> int:
+    """Threads that run the chunks of a large closed-form batch side by side: numba's
+    configured thread count (``NUMBA_NUM_THREADS``, one per core by default), read
+    without starting its threading layer."""
+    import numba
+
+    return max(1, int(numba.config.NUMBA_NUM_THREADS))
 
 
 def _whole_positive(name: str, value: object) -> int:

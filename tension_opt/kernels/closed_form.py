@@ -520,7 +520,7 @@ def solve_forms(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c:
                      codes)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def solve_forms_serial(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray,
                        c: NDArray, v: NDArray, minmax: bool, quadratic: bool,
                        tol_factor: float, T: NDArray, info: NDArray, codes: NDArray

@@ -182,7 +182,7 @@ def geometry_batch(kind: int, anchors: NDArray, attachments: NDArray, com: NDArr
                                  poses[k], w, A[k], b[k])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def geometry_serial(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
                     weight: float, zero_length: float, poses: NDArray, wrenches: NDArray,
                     A: NDArray, b: NDArray, codes: NDArray) -> None:

@@ -28,7 +28,7 @@ def _worst(a: float, b: float) -> float:
     return a if a >= b else b
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def batch_measures(P: NDArray, c: NDArray, Aeq: NDArray, beq: NDArray, G: NDArray,
                    h: NDArray, lb: NDArray, ub: NDArray, x: NDArray, y: NDArray,
                    mu: NDArray, z: NDArray) -> tuple[NDArray, NDArray, NDArray]:

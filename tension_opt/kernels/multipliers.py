@@ -54,7 +54,7 @@ def solve_small(H: NDArray, u: NDArray) -> bool:
     return True
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def batch_estimate(P: NDArray, c: NDArray, Aeq: NDArray, G: NDArray, h: NDArray,
                    lb: NDArray, ub: NDArray, x: NDArray, ridge: float
                    ) -> tuple[NDArray, NDArray, NDArray]:

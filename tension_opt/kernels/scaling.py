@@ -108,7 +108,7 @@ def pose_scaling(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c
     return s, linear if linear > 0.0 else 1.0, False
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def batch_scaling(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
                   vmax: float, ub_share: float, row_floor: float
                   ) -> tuple[NDArray, NDArray, NDArray, NDArray]:

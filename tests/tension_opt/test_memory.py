@@ -8,6 +8,7 @@ must not overflow for wrenches near the float range.
 
 from __future__ import annotations
 
+import importlib
 import json
 import subprocess
 import sys
@@ -27,6 +28,9 @@ from tension_opt.errors import InvalidInputError
 from tension_opt.nullspace import safe_norm, solution_set, typical_tension
 from tension_opt.problems import StandardForm, TensionProblem
 from tension_opt.sampling import default_box, feasible_mask, random_feasible_poses
+
+# The module (the package's name ``distribute`` is the function).
+distribute_module = importlib.import_module("tension_opt.distribute")
 
 #: Poses of the memory test: above ten chunks, and enough that the unchunked path needs
 #: over 2 GB (the two-dimensional closed form holds about 23 kB per pose at once).
@@ -146,6 +150,25 @@ def test_chunks_give_the_unchunked_result(size: int, seed: int, objective: str) 
     assert_same(whole, chunked)
     assert chunked.problem is whole.problem or chunked.problem.name == whole.problem.name
     assert (chunked.form is None) == (size < len(poses))
+
+
+@pytest.mark.parametrize("objective", ["min_sum", "min_norm"])
+def test_chunks_in_threads_give_the_serial_result(cogiro: to.CableRobot, objective: str,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    """Chunks of the compiled closed form run side by side in threads (whatever this
+    machine's core count, three here) and join to the serial loop's result exactly; an
+    invalid pose in a later chunk still raises, numbered in the batch."""
+    poses = _poses(cogiro, 300, 21, spread=1.6)
+    monkeypatch.setattr(distribute_module, "chunk_threads", lambda: 1)
+    serial = to.distribute(cogiro, poses, objective, "closed_form", chunk_size=23)
+    assert 0 < (serial.status == to.Status.OPTIMAL).sum() < len(poses)
+    monkeypatch.setattr(distribute_module, "chunk_threads", lambda: 3)
+    threaded = to.distribute(cogiro, poses, objective, "closed_form", chunk_size=23)
+    assert_same(serial, threaded)
+    poses[251, :3] = cogiro.anchors[3] - cogiro.attachments[3]
+    poses[251, 3:] = 0.0
+    with pytest.raises(InvalidInputError, match=r"pose 251 .*cable 3"):
+        to.distribute(cogiro, poses, objective, "closed_form", chunk_size=23)
 
 
 def test_per_pose_inputs_are_cut_with_the_poses(cogiro: to.CableRobot) -> None:
