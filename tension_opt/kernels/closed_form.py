@@ -22,10 +22,12 @@ from numpy.typing import NDArray
 
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
 from tension_opt.kernels.lowdim import (
+    FEAS_TOL,
     FLAT_TOL,
     LP,
     MINMAX,
     QP,
+    infeasibility_1d,
     lowdim_work,
     lp_2d,
     qp_2d,
@@ -298,7 +300,9 @@ def _solve_viewed(data: NDArray, anchors: NDArray, attachments: NDArray, terms: 
         quadratic = False
         for i in range(m):
             quadratic = quadratic or q[i] != 0.0
-        settled, unique = point4(A, b, lb, ub, q, c, quadratic, T, rest)
+        settled, unique, infeas = point4(A, b, lb, ub, q, c, quadratic, T, rest)
+        if settled and not math.isnan(infeas):
+            return 1, True, np.nan, infeas
         if settled:
             tol_scale = pose_scales(A, b, lb)[1]
             code, res = judge(A, b, lb, ub, T, data[6] * tol_scale)
@@ -395,13 +399,17 @@ def _plain(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
 
 @njit(cache=True, error_model="numpy", inline="always")
 def point4(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
-           quadratic: bool, T: NDArray, work: NDArray) -> tuple[bool, bool]:
+           quadratic: bool, T: NDArray, work: NDArray) -> tuple[bool, bool, float]:
     """Four cables, three equations (LP or QP): the numpy path's shortcut
     (``ClosedFormBackend._solve_point4``), tensions written to ``T``; returns
-    ``(settled, unique)``. A particular solution comes from cables 1-3 by Cramer's rule
-    and the null vector from the same cross products; poses with cables 1-3 nearly
-    coplanar, no feasible tension, or a cable that does not move along the null
-    vector are not settled (the general path answers them). ``work``: 17 floats."""
+    ``(settled, unique, infeasibility)``, the infeasibility NaN for a solved pose. A
+    particular solution comes from cables 1-3 by Cramer's rule and the null vector from
+    the same cross products. A pose with no feasible tension is settled here with its
+    distance to feasibility (:func:`~tension_opt.kernels.lowdim.infeasibility_1d` on
+    this line; the numpy path finds the same line by the general path, to rounding),
+    save within the general path's slack; poses with cables 1-3 nearly coplanar, or a
+    cable that does not move along the null vector, are not settled (the general path
+    answers them). ``work``: 17 + 4 m floats."""
     u = A  # columns u_i = A[:, i]
     # C_j: u2 x u3, u3 x u1, u1 x u2 (cables 1-3 counted from one), one per row (C
     # flat in work: a reshaped view costs more than these products).
@@ -413,7 +421,7 @@ def point4(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
         C[3 * j + 2] = u[0, a] * u[1, e] - u[1, a] * u[0, e]
     det = u[0, 0] * C[0] + u[1, 0] * C[1] + u[2, 0] * C[2]
     if not abs(det) > 1e-9:
-        return False, True
+        return False, True, np.nan
     Tp, n = work[9:13], work[13:17]
     Tp[3] = 0.0
     for j in range(3):
@@ -424,7 +432,7 @@ def point4(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
     lo, hi, nn = -np.inf, np.inf, 0.0
     for i in range(4):
         if not abs(n[i]) > 1e-9 * top:
-            return False, True
+            return False, True, np.nan
         nn += n[i] * n[i]
         r_lb, r_ub = (lb[i] - Tp[i]) / n[i], (ub[i] - Tp[i]) / n[i]
         if n[i] > 0:
@@ -432,7 +440,14 @@ def point4(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
         else:
             lo, hi = max(lo, r_ub), min(hi, r_lb)
     if not lo <= hi:
-        return False, True
+        # Infeasible unless within the general path's slack (its interval is in units of
+        # a unit null vector): then its distance is that of this line, found here
+        # without the general path's QR (a few times the cost of a feasible pose).
+        typical = pose_scales(A, b, lb)[0]
+        if math.isnan(lo - hi) or (lo - hi) * math.sqrt(nn) <= FEAS_TOL * typical:
+            return False, True, np.nan
+        T[:] = np.nan
+        return True, True, infeasibility_1d(Tp, n, lb, ub, work[17:])
     unique = True
     if quadratic:
         num = den = 0.0
@@ -441,7 +456,7 @@ def point4(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
             den += q[i] * n[i] * n[i]
         t = -num / den
         if math.isnan(t):  # numpy's clip keeps a NaN, which sends the pose on
-            return False, True
+            return False, True, np.nan
         t = min(max(t, lo), hi)
     else:
         slope = cc = tn = 0.0
@@ -453,10 +468,10 @@ def point4(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
         t = min(max(-tn / nn, lo), hi) if flat else (lo if slope > 0 else hi)
         unique = not flat or lo == hi
     if not math.isfinite(t):
-        return False, True
+        return False, True, np.nan
     for i in range(4):
         T[i] = Tp[i] + t * n[i]
-    return True, unique
+    return True, unique, np.nan
 
 
 @njit(cache=True, error_model="numpy")
@@ -475,10 +490,10 @@ def _forms_chunk(j: int, A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: ND
         if own == quadratic and _plain(A[k], b[k], lb[k], ub[k], q[k], c[k]):
             settled = False
             if n == 3 and m == 4 and not minmax:  # as the numpy path: its shortcut first
-                settled, unique = point4(A[k], b[k], lb[k], ub[k], q[k], c[k], quadratic,
-                                         T[k], work)
+                settled, unique, infeas = point4(A[k], b[k], lb[k], ub[k], q[k], c[k],
+                                                 quadratic, T[k], work)
             if settled:
-                code = 0
+                code = 0 if math.isnan(infeas) else 1
             else:
                 code, unique, _, infeas = solve_form(A[k], b[k], lb[k], ub[k], q[k], c[k],
                                                      vk, minmax, tol_factor, T[k], work)

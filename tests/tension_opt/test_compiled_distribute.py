@@ -321,3 +321,15 @@ def test_a_forked_child_solves_after_its_parent_ran_in_parallel():
     child.join(timeout=60)
     assert child.exitcode == 0
     np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("objective", ["min_sum", "min_norm"])
+def test_study_poses_outside_the_workspace_get_the_numpy_distance(objective: str) -> None:
+    """Four cables, three equations: an infeasible pose is settled by the kernel's
+    shortcut (no QR) with the distance to feasibility the numpy path finds by its
+    general path, to 1e-12 of the pose's scale."""
+    robot = to.presets.algae_harvester()
+    low, high = robot.anchors.min(axis=0), robot.anchors.max(axis=0)
+    poses = np.random.default_rng(5).uniform(low - [0, 0, 30], high - [0, 0, 0.5], (400, 3))
+    statuses = assert_same_raw(to.TensionProblem(objective).standard_form(robot, poses))
+    assert 50 < statuses.count(to.Status.INFEASIBLE) < 350
