@@ -85,6 +85,47 @@ class ClosedFormBackend(Backend):
         elapsed = time.perf_counter() - t0
         return RawResult(T, status, np.zeros(form.N, dtype=int), 0.0, elapsed, unique, infeas)
 
+    def solve_sequence(self, base: StandardForm, smoothing: float, rate: NDArray,
+                       last: NDArray, start: int, out: tuple[NDArray, NDArray, NDArray, NDArray]
+                       ) -> int:
+        """Poses ``start, start + 1, ...`` of a smoothed or rate-limited sequence by the
+        compiled kernel, each as its one-pose form would be solved by :meth:`solve`.
+
+        Parameters
+        ----------
+        base : StandardForm
+            The unsmoothed forms of all N poses (no min-max term, no extra rows).
+        smoothing : float
+            The problem's smoothing weight.
+        rate : ndarray, shape (m,)
+            Rate limit per cable (N), ``inf`` where none.
+        last : ndarray, shape (m,)
+            Tensions (N) the first pose is smoothed against (NaN: none); takes those of
+            each pose reported optimal, in place.
+        start : int
+        out : (tensions (N, m), status (N,), unique (N,), infeasibility (N,))
+            Raw results, written for the poses solved.
+
+        Returns
+        -------
+        int
+            The first pose left to :meth:`solve` on its own form (one this kernel
+            does not settle), or N.
+        """
+        from tension_opt.kernels import closed_form
+
+        T, status, unique, infeas = out
+        info, codes = np.empty((base.N, 2)), np.zeros(base.N, dtype=np.int64)
+        arrays = [np.ascontiguousarray(x, dtype=float)
+                  for x in (base.A, base.b, base.lb, base.ub, base.q, base.c)]
+        stop = closed_form.solve_forms_sequence(
+            *arrays, float(smoothing), np.ascontiguousarray(rate, dtype=float),
+            FEASIBILITY_TOL, last, bool(np.isfinite(last).all()), T, info, codes, start)
+        done = slice(start, stop)
+        status[done] = _RAW_STATUS[codes[done]]
+        unique[done], infeas[done] = info[done, 0] != 0.0, info[done, 1]
+        return int(stop)
+
     def _solve_compiled(self, form: StandardForm) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         """The compiled kernel over every pose; the poses it hands back by the numpy path.
 

@@ -38,7 +38,8 @@ from tension_opt.solution import FEASIBILITY_TOL
 
 __all__ = ["CODE_BAD_INPUT", "CODE_FALLBACK", "CODE_STATUS", "HEADER", "HUGE", "form_terms",
            "judge", "pack", "pack_problem", "point4", "pose_scales", "solve_batch",
-           "solve_batch_serial", "solve_form", "solve_forms", "solve_forms_serial", "solve_one",
+           "solve_batch_serial", "solve_form", "solve_forms", "solve_forms_sequence",
+           "solve_forms_serial", "solve_one",
            "solve_sequence", "work_size"]
 
 #: Status codes of the kernels and the :class:`~tension_opt.solution.Status` values
@@ -544,3 +545,47 @@ def solve_forms_serial(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDAr
     for j in range((A.shape[0] + CHUNK - 1) // CHUNK):
         _forms_chunk(j, A, b, lb, ub, q, c, v, minmax, quadratic, tol_factor, T, info,
                      codes)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def solve_forms_sequence(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0: NDArray,
+                         c0: NDArray, smoothing: float, rate: NDArray, tol_factor: float,
+                         last: NDArray, has_last: bool, T: NDArray, info: NDArray,
+                         codes: NDArray, start: int) -> int:
+    """Poses ``start, start + 1, ...`` of a sequence (``distribute``'s own structure
+    matrices ``A`` (N, n, m) and ``b`` (N, n), unsmoothed terms ``lb0 ... c0`` (N, m)),
+    each smoothed against ``last`` (m,) as its one-pose form (:func:`form_terms`) and
+    solved as :func:`solve_forms` solves that form; ``last`` takes the tensions of every
+    pose the backend reports optimal (codes 0 and 3), as the sequence does. Writes
+    ``T``, ``info`` (unique, infeasibility) and ``codes``; stops at a pose the numpy path
+    or another backend must answer (data beyond :data:`HUGE`, codes from the solver
+    error on) and returns its index (N when done)."""
+    N, n, m = A.shape
+    work = np.empty(4 * m + work_size(m, n))
+    q, c, lb, ub, rest = work[:m], work[m:2 * m], work[2 * m:3 * m], work[3 * m:4 * m], \
+        work[4 * m:]
+    v = np.ones(m)
+    for k in range(start, N):
+        form_terms(q0[k], c0[k], lb0[k], ub0[k], smoothing, rate, last, has_last, q, c, lb,
+                   ub)
+        if not _plain(A[k], b[k], lb, ub, q, c):
+            return k
+        quadratic = False
+        for i in range(m):
+            quadratic = quadratic or q[i] != 0.0
+        settled, unique, infeas = False, True, np.nan
+        if n == 3 and m == 4:  # as the numpy path: its shortcut first
+            settled, unique, infeas = point4(A[k], b[k], lb, ub, q, c, quadratic, T[k], rest)
+        if settled:
+            code = 0 if math.isnan(infeas) else 1
+        else:
+            code, unique, _, infeas = solve_form(A[k], b[k], lb, ub, q, c, v, False,
+                                                 tol_factor, T[k], rest)
+        if code >= 4:
+            return k
+        codes[k] = code
+        info[k, 0], info[k, 1] = 1.0 if unique else 0.0, infeas
+        if code == 0 or code == 3:
+            last[:] = T[k]
+            has_last = True
+    return N
