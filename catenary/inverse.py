@@ -219,13 +219,24 @@ def inverse_kinematics(
     t0 = time.perf_counter()
     if model not in ("thesis", "coupled"):
         raise InvalidCableError(f'model must be "thesis" or "coupled"; got model={model!r}')
-    if compiled and model == "thesis" and np.ndim(poses) == 1:
+    if compiled and model == "thesis" and _one_pose(poses):
         result = thesis_result(thesis_solver(robot, objective, backend, options), poses,
                                wrench, t0)
         if result is not None:
             return result
     return _batch(robot, poses, model, objective, backend, wrench, initial_tensions,
                   dict(tol=tol, max_iter=max_iter, compiled=compiled), options, t0)
+
+
+def _one_pose(poses: ArrayLike) -> bool:
+    """Whether ``poses`` is one pose (a vector); False for anything numpy cannot read
+    as an array (ragged lists: the numpy path raises the package's error for them)."""
+    if isinstance(poses, np.ndarray):
+        return poses.ndim == 1
+    try:
+        return np.ndim(poses) == 1
+    except (ValueError, TypeError):
+        return False
 
 
 def _batch(robot: CableRobot, poses: ArrayLike, model: str, objective: Any,

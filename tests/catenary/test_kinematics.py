@@ -175,3 +175,12 @@ def test_invalid_arguments(thesis):
         forward_kinematics(thesis, [[50.0, 50.0, -1.0, 50.0]])
     with pytest.raises(ValueError, match="cable properties"):
         inverse_kinematics(to.presets.kntu_planar(), [0, 0, 0])
+
+
+@pytest.mark.parametrize("poses", [[[1.0, 2.0], [3.0]], [[1.0, 2.0, 3.0], [1.0, 2.0]], "abc"])
+def test_thesis_ik_names_poses_numpy_cannot_read(poses: object) -> None:
+    """Ragged or non-numeric poses meet the package's error naming them on the compiled
+    thesis path too (its one-pose test once let numpy's ValueError through)."""
+    robot = to.presets.algae_harvester()
+    with pytest.raises(to.InvalidInputError, match="poses"):
+        inverse_kinematics(robot, poses, model="thesis")
