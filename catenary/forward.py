@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 import tension_opt
 from tension_opt import CableRobot, TensionProblem
+from tension_opt.checks import as_float_array
 from tension_opt.problems import Objective
 from tension_opt.solution import Status, status_array
 
@@ -176,7 +177,7 @@ def forward_kinematics(
 
 def _check_lengths(robot: CableRobot, lengths: ArrayLike) -> FloatArray:
     """Lengths as an (N, m) array; raises unless they are positive and finite."""
-    L = np.asarray(lengths, dtype=float)
+    L = as_float_array("lengths", lengths)
     if L.ndim == 1:
         L = L[None]
     if L.ndim != 2 or L.shape[1] != robot.m:
@@ -359,7 +360,7 @@ class ForwardSystem:
         self.robot, self.lengths, self.w, self.EA = robot, lengths, w, EA
         N = lengths.shape[0]
         self.wrench = (None if wrench is None
-                       else np.broadcast_to(np.asarray(wrench, float), (N, robot.dof)))
+                       else np.broadcast_to(as_float_array("wrench", wrench), (N, robot.dof)))
         self.scale_len = float(np.ptp(robot.anchors, axis=0).max()) or 1.0
         self.scale_f = robot.weight
         self.translation, self.rotation = robot.pattern.step_maps()

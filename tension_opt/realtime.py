@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt.backends.base import Backend
 from tension_opt.backends.settings import check_options, solver_options
 from tension_opt.certificate import accuracy_target
-from tension_opt.checks import as_finite
+from tension_opt.checks import as_finite, as_float_array
 from tension_opt.distribute import distribute
 from tension_opt.errors import InvalidInputError
 from tension_opt.problems import TensionProblem, as_problem
@@ -238,13 +238,15 @@ class Distributor:
     def _general(self, pose: ArrayLike, wrench: ArrayLike | None,
                  previous: ArrayLike | None) -> RealtimeResult:
         """Any call the fast test of :meth:`__call__` turned away."""
-        p = np.ascontiguousarray(pose, dtype=float)
+        p = np.ascontiguousarray(as_float_array("pose", pose))
+        # Read as arrays once, so that anything numpy cannot read is named here.
+        wrench = None if wrench is None else as_float_array("wrench", wrench)
+        previous = None if previous is None else as_float_array("previous", previous)
         n, m = self.robot.dof, self.robot.m
         if p.shape == (n,) and self._data is not None and (
-                wrench is None or np.shape(wrench) == (n,)) and (
-                previous is None or np.shape(previous) == (m,)):
-            w = self._no_wrench if wrench is None else np.ascontiguousarray(wrench,
-                                                                             dtype=float)
+                wrench is None or wrench.shape == (n,)) and (
+                previous is None or previous.shape == (m,)):
+            w = self._no_wrench if wrench is None else np.ascontiguousarray(wrench)
             return self._one(p, w, wrench, previous)
         result = self._many(self.robot.as_poses(pose), wrench, previous)
         if p.ndim != 1:

@@ -34,6 +34,7 @@ __all__ = [
     "LengthResult",
     "bracketed_newton",
     "certify_spans",
+    "float_argument",
     "prepare",
     "selection",
     "status_array",
@@ -151,6 +152,19 @@ def _check(name: str, a: FloatArray, *, positive: bool = False, allow_inf: bool 
         )
 
 
+def float_argument(name: str, value: ArrayLike) -> FloatArray:
+    """``value`` as a float array, or :class:`InvalidCableError` naming the argument
+    (strings, ragged nesting, None, objects numpy cannot read as numbers)."""
+    if value is None or isinstance(value, str | bytes):
+        raise InvalidCableError(f"{name} must be numbers; got {name}={value!r}")
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidCableError(
+            f"{name} must be a rectangular array of numbers; got {name}={value!r}"[:300]
+        ) from None
+
+
 def prepare(
     x: ArrayLike, z: ArrayLike, third: ArrayLike, w: ArrayLike, EA: ArrayLike, third_name: str
 ) -> tuple[tuple[int, ...], list[FloatArray]]:
@@ -178,8 +192,8 @@ def prepare(
     InvalidCableError
         NaN, out-of-domain values or shapes that do not broadcast.
     """
-    arrays = [np.asarray(a, dtype=np.float64) for a in (x, z, third, w, EA)]
     names = ("x", "z", third_name, "w", "EA")
+    arrays = [float_argument(n, a) for n, a in zip(names, (x, z, third, w, EA), strict=True)]
     for n, a in zip(names, arrays, strict=True):
         if np.any(np.isnan(a)):
             raise InvalidCableError(f"{n} contains NaN")

@@ -100,8 +100,11 @@ def flat_arguments(*args: ArrayLike) -> tuple[tuple[int, ...], int, list[FloatAr
         One contiguous float array per argument, of ``n`` entries or of one (an
         argument with a single value, not broadcast: the kernels read entry 0).
     """
-    arrays = [a if type(a) is np.ndarray and a.dtype is _F64 else np.asarray(a, dtype=_F64)
-              for a in args]
+    try:
+        arrays = [a if type(a) is np.ndarray and a.dtype is _F64 else np.asarray(a, dtype=_F64)
+                  for a in args]
+    except (TypeError, ValueError):
+        return None  # not numbers: the numpy path's checks name the argument
     # Arrays of one shape and scalars (the usual call) skip numpy's broadcast_shapes,
     # whose cost is that of solving several cables.
     shape: tuple[int, ...] = ()

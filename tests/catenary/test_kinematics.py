@@ -184,3 +184,10 @@ def test_thesis_ik_names_poses_numpy_cannot_read(poses: object) -> None:
     robot = to.presets.algae_harvester()
     with pytest.raises(to.InvalidInputError, match="poses"):
         inverse_kinematics(robot, poses, model="thesis")
+
+
+@pytest.mark.parametrize("lengths", [[[1.0, 2.0], [3.0]], "abc", [1.0, "x", 2.0, 3.0]])
+def test_forward_kinematics_names_lengths_numpy_cannot_read(lengths: object) -> None:
+    robot = to.presets.algae_harvester()
+    with pytest.raises(to.InvalidInputError, match="lengths"):
+        forward_kinematics(robot, lengths)

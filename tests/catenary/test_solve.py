@@ -541,3 +541,21 @@ def test_folded_cable_with_a_subnormal_weight_keeps_its_span() -> None:
     assert x == pytest.approx(L0 * (1.0 + H / EA), rel=1e-15) and z == 0.0
     F = cat.flexibility(H, V_B, L0, w, EA)
     np.testing.assert_allclose(F, [[L0 / EA, 0.0], [0.0, L0 / EA + L0 / H]], rtol=1e-15)
+
+
+UNREADABLE = [[[1.0, 2.0], [3.0]], "abc", [1.0, "x", 2.0]]
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("value", UNREADABLE, ids=["ragged", "string", "mixed"])
+@pytest.mark.parametrize("name", ["x", "z", "w", "EA"])
+def test_unreadable_arguments_raise_the_package_error_naming_them(name: str, value: object,
+                                                                   compiled: bool) -> None:
+    """Strings and ragged lists meet InvalidCableError naming the argument, on the
+    compiled path and on numpy's (both once let numpy's ValueError through)."""
+    good = {"x": 10.0, "z": -2.0, "w": 2.0, "EA": 1e6}
+    bad = {**good, name: value}
+    with pytest.raises(cat.InvalidCableError, match=rf"\b{name}\b"):
+        cat.solve_length(bad["x"], bad["z"], 500.0, bad["w"], bad["EA"], compiled=compiled)
+    with pytest.raises(cat.InvalidCableError, match=rf"\b{name}\b"):
+        cat.solve_forces(bad["x"], bad["z"], 10.5, bad["w"], bad["EA"], compiled=compiled)

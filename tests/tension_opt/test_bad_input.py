@@ -292,3 +292,16 @@ def test_a_pose_with_nothing_to_hold_is_optimal_not_inaccurate() -> None:
     sol = to.distribute(robot, [[0.16, -0.27, -0.28]], "min_sum", "qpsolvers:daqp")
     assert sol.success.all()
     np.testing.assert_allclose(sol.tensions, 0.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("value", [[[1.0, 2.0], [3.0]], "abc", [1.0, "x", 2.0]],
+                         ids=["ragged", "string", "mixed"])
+@pytest.mark.parametrize("name", ["pose", "wrench", "previous"])
+def test_distributor_names_arguments_numpy_cannot_read(study: to.CableRobot, name: str,
+                                                       value: object) -> None:
+    """A Distributor call meets unreadable input with the package's error naming the
+    argument (its fast path once let numpy's ValueError through)."""
+    solver = to.Distributor(study, to.TensionProblem("min_norm", smoothing=1.0))
+    call = {"pose": study.default_home(), name: value}
+    with pytest.raises(to.InvalidInputError, match=name):
+        solver(call.pop("pose"), **call)
