@@ -112,6 +112,8 @@ def load_compiled_kernels() -> None:
     """
     if _LOADED:
         return
+    import numpy as np
+
     import catenary
     import tension_opt as to
 
@@ -123,6 +125,9 @@ def load_compiled_kernels() -> None:
                                                             else 2]:
             to.distribute(robot, home, objective, "closed_form")
             to.Distributor(robot, objective)(home)
+        # A smoothed sequence's compiled loop (one compilation serves every robot).
+        to.distribute(robot, np.stack([home, home]), to.TensionProblem("min_sum", smoothing=1e-3),
+                      "closed_form")
         catenary.inverse_kinematics(robot, home, model="thesis")
         # The generic backends' scaling and certificate kernels (and DAQP's C path).
         generic = [b for b in ("scipy:highs", "qpsolvers:daqp") if b in available]
