@@ -419,13 +419,14 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
     setup = solve = 0.0
     last = previous
     base = _compiled_sequence(backend, problem, unsmoothed, robot, A, b, previous)
+    rates = _rates(problem, m)
     k = 0
     while k < N:
         if base is not None:
             held = np.full(m, np.nan) if last is None else np.array(last, dtype=float)
             t0 = time.perf_counter()
             stop = backend.solve_sequence(  # type: ignore[attr-defined]
-                base, problem.smoothing, _rates(problem, m), held, k,
+                base, problem.smoothing, rates, held, k,
                 (tensions, status, unique, infeasibility))
             solve += time.perf_counter() - t0
             _smoothed_against(used, tensions, status, k, stop, last)

@@ -475,6 +475,22 @@ def point4(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
     return True, unique, np.nan
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _form_pose(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
+               v: NDArray, minmax: bool, quadratic: bool, tol_factor: float, T: NDArray,
+               work: NDArray) -> tuple[int, bool, float]:
+    """One pose's form as :func:`solve_forms` solves it (data within :data:`HUGE`):
+    the four-cable shortcut first, as the numpy path, then :func:`solve_form`; returns
+    ``(code, unique, infeasibility)``."""
+    n, m = A.shape
+    if n == 3 and m == 4 and not minmax:
+        settled, unique, infeas = point4(A, b, lb, ub, q, c, quadratic, T, work)
+        if settled:
+            return (0 if math.isnan(infeas) else 1), unique, infeas
+    code, unique, _, infeas = solve_form(A, b, lb, ub, q, c, v, minmax, tol_factor, T, work)
+    return code, unique, infeas
+
+
 @njit(cache=True, error_model="numpy")
 def _forms_chunk(j: int, A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray,
                  c: NDArray, v: NDArray, minmax: bool, quadratic: bool, tol_factor: float,
@@ -489,15 +505,8 @@ def _forms_chunk(j: int, A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: ND
             own = own or q[k, i] != 0.0
         code, unique, infeas = CODE_FALLBACK, True, np.nan
         if own == quadratic and _plain(A[k], b[k], lb[k], ub[k], q[k], c[k]):
-            settled = False
-            if n == 3 and m == 4 and not minmax:  # as the numpy path: its shortcut first
-                settled, unique, infeas = point4(A[k], b[k], lb[k], ub[k], q[k], c[k],
-                                                 quadratic, T[k], work)
-            if settled:
-                code = 0 if math.isnan(infeas) else 1
-            else:
-                code, unique, _, infeas = solve_form(A[k], b[k], lb[k], ub[k], q[k], c[k],
-                                                     vk, minmax, tol_factor, T[k], work)
+            code, unique, infeas = _form_pose(A[k], b[k], lb[k], ub[k], q[k], c[k], vk,
+                                              minmax, quadratic, tol_factor, T[k], work)
         codes[k] = code
         info[k, 0], info[k, 1] = 1.0 if unique else 0.0, infeas
 
@@ -573,14 +582,8 @@ def solve_forms_sequence(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0:
         quadratic = False
         for i in range(m):
             quadratic = quadratic or q[i] != 0.0
-        settled, unique, infeas = False, True, np.nan
-        if n == 3 and m == 4:  # as the numpy path: its shortcut first
-            settled, unique, infeas = point4(A[k], b[k], lb, ub, q, c, quadratic, T[k], rest)
-        if settled:
-            code = 0 if math.isnan(infeas) else 1
-        else:
-            code, unique, _, infeas = solve_form(A[k], b[k], lb, ub, q, c, v, False,
-                                                 tol_factor, T[k], rest)
+        code, unique, infeas = _form_pose(A[k], b[k], lb, ub, q, c, v, False, quadratic,
+                                          tol_factor, T[k], rest)
         if code >= 4:
             return k
         codes[k] = code

@@ -10,6 +10,7 @@ calls from several threads at once and from a forked child process.
 
 from __future__ import annotations
 
+import importlib
 import multiprocessing as mp
 import threading
 
@@ -365,7 +366,7 @@ def test_compiled_sequence_equals_pose_by_pose(robot_name: str, problem: to.Tens
     wrench[60, 0] = 1e160
     fast = to.distribute(robot, poses, problem, "closed_form", wrench=wrench,
                          previous=previous)
-    distribute_module = __import__("sys").modules["tension_opt.distribute"]
+    distribute_module = importlib.import_module("tension_opt.distribute")
     monkeypatch.setattr(distribute_module, "_compiled_sequence", lambda *args: None)
     slow = to.distribute(robot, poses, problem, "closed_form", wrench=wrench,
                          previous=previous)
