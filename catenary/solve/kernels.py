@@ -31,6 +31,19 @@ from numpy.typing import NDArray
 
 from .kernels_bracket import FEASIBLE, family_decision
 from .kernels_bracket import INFEASIBLE as NO_MEMBER
+from .kernels_spans import (
+    EPS,
+    RES_TOL,
+    T_TOL,
+    clip,
+    hypot,
+    nanmax,
+    power_of_two,
+    spans,
+    spans_flex,
+    spans_one,
+    valid,
+)
 
 __all__ = ["CONVERGED", "FALLBACK", "INFEASIBLE", "INVALID", "PARALLEL_FROM", "hypot",
            "solve_forces_batch", "solve_forces_cables", "solve_forces_cables_parallel",
@@ -43,146 +56,6 @@ CONVERGED, FALLBACK, INVALID, INFEASIBLE = 0, 1, 2, 3
 #: Cables from which a batch runs in parallel (below, waking threads costs more than
 #: the work).
 PARALLEL_FROM = 2048
-RES_TOL = 1e-8
-EPS = float(np.finfo(np.float64).eps)
-T_TOL = 1e-9
-_SERIES_CUT = 0.1
-_SMALLEST_NORMAL = 2.0**-1022
-_LARGEST_POWER = 2.0**1023
-_ASINHC_M1 = np.array([-1 / 6, 3 / 40, -5 / 112, 35 / 1152, -63 / 2816, 231 / 13312,
-                       -143 / 10240, 6435 / 557056])
-_G_SERIES = np.array([1 / 3, -3 / 10, 15 / 56, -35 / 144, 315 / 1408, -693 / 3328,
-                      1001 / 5120, -6435 / 34816])
-
-
-#: Magnitudes between which ``sqrt(a * a + b * b)`` neither overflows nor loses the
-#: larger square to underflow (:func:`hypot`).
-_SQUARES_SAFE = (1e-150, 1e150)
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def hypot(a: float, b: float) -> float:
-    """``sqrt(a^2 + b^2)`` as :func:`math.hypot` to rounding; a square root where the
-    squares are safe (the solves' nondimensional data always are), else libm's
-    ``hypot``, a call several times as long. NaN and inf as :func:`math.hypot`."""
-    big = max(abs(a), abs(b))
-    if _SQUARES_SAFE[0] < big < _SQUARES_SAFE[1]:
-        return math.sqrt(a * a + b * b)
-    return math.hypot(a, b)
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _poly(coeffs: NDArray, u2: float) -> float:
-    acc = coeffs[-1]
-    for k in range(coeffs.size - 2, -1, -1):
-        acc = acc * u2 + coeffs[k]
-    return acc
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _g(a: float) -> float:
-    """``asinh(a) - a / sqrt(1 + a^2)`` without cancellation."""
-    a2 = a * a
-    if abs(a) < _SERIES_CUT:
-        return a * a2 * _poly(_G_SERIES, a2)
-    return math.asinh(a) - math.copysign(1.0, a) / math.sqrt(1.0 + 1.0 / a2)
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _spans(H: float, V_B: float, L0: float, w: float, inv_EA: float, fast: bool
-           ) -> tuple[float, float, float, float, float, float, float, float, bool, bool]:
-    """The spans part of :func:`spans_one`: ``(x, z, V_A, T_A, T_B, rho, qm1, S,
-    opposite, regular)`` (``qm1`` only where not ``opposite``: it is not needed there).
-    ``fast``: the end tensions by :func:`hypot` (the length solve, on nondimensional
-    data), else by libm's (the force solve: near a taut inextensible cable its forces
-    follow the last bit of the tensions, and the numpy path's iterations with them)."""
-    wL = w * L0
-    V_A = V_B - wL
-    if fast:
-        T_A, T_B = hypot(H, V_A), hypot(H, V_B)
-    else:
-        T_A, T_B = math.hypot(H, V_A), math.hypot(H, V_B)
-    S, TS = V_A + V_B, T_A + T_B
-    rho = S / (V_B * T_A + V_A * T_B)
-    HL = H * L0
-    opposite = V_A < 0.0 and V_B > 0.0
-    qm1 = 0.0
-    if opposite:
-        x_c = H / w * (math.asinh(V_B / H) - math.asinh(V_A / H))
-    else:
-        u = wL * rho
-        if abs(u) < _SERIES_CUT:
-            qm1 = u * u * _poly(_ASINHC_M1, u * u)
-            q = 1.0 + qm1
-        else:
-            q = math.asinh(u) / u
-            qm1 = q - 1.0
-        x_c = HL * rho * q
-    z_c = L0 * S / TS
-    regular = math.isfinite(x_c) and H != 0.0 and not abs(S) < 1e-150 * H
-    x = HL * inv_EA + x_c
-    z = 0.5 * L0 * S * inv_EA + z_c
-    return x, z, V_A, T_A, T_B, rho, qm1, S, opposite, regular
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def spans_one(H: float, V_B: float, L0: float, w: float, inv_EA: float
-              ) -> tuple[float, float, float, float, float, float, float, bool]:
-    """Spans, flexibility and end tensions of one cable, ``(x, z, F_xx, F_xz, F_zz,
-    T_A, T_B, regular)`` (:func:`catenary.elastic.evaluate`); ``regular`` is False
-    at the degenerate limits (vertical cable, ``|V_A + V_B| << H``), which the numpy
-    path handles."""
-    return _spans_flex(H, V_B, L0, w, inv_EA, False)
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _spans_flex(H: float, V_B: float, L0: float, w: float, inv_EA: float, fast: bool
-                ) -> tuple[float, float, float, float, float, float, float, bool]:
-    """:func:`spans_one`, the end tensions as :func:`_spans` computes them with
-    ``fast``."""
-    x, z, V_A, T_A, T_B, rho, qm1, S, opposite, regular = _spans(H, V_B, L0, w, inv_EA,
-                                                                  fast)
-    TS, HL = T_A + T_B, H * L0
-    TT, H2 = T_A * T_B, H * H
-    F_xz = -HL * S / (TT * TS)
-    VA2, VB2 = V_A * V_A, V_B * V_B
-    prod_m_h2 = (H2 * (VA2 + VB2) + VA2 * VB2) / (TT + H2)
-    Lrho = L0 * rho
-    F_xx = Lrho * (qm1 + prod_m_h2 / TT)
-    F_zz = H2 * Lrho / TT
-    if opposite:
-        F_xx = (_g(V_B / H) + _g(-V_A / H)) / w
-        F_zz = (V_B / T_B - V_A / T_A) / w
-    base = L0 * inv_EA
-    return x, z, base + F_xx, F_xz, base + F_zz, T_A, T_B, regular
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _clip(a: float, lo: float, hi: float) -> float:
-    """``numpy.clip`` of one number (NaN stays NaN)."""
-    if a != a:
-        return a
-    return min(max(a, lo), hi)
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _nanmax(a: float, b: float) -> float:
-    """``numpy.maximum`` of two numbers (NaN if either is)."""
-    if a != a or b != b:
-        return np.nan
-    return max(a, b)
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _power_of_two(scale: float) -> float:
-    """:func:`catenary.elastic.power_of_two` of one number: ``p <= |scale| < 2 p``,
-    within ``[2**-1022, 2**1023]``."""
-    a = abs(scale)
-    if not a < np.inf:
-        return _LARGEST_POWER
-    if not a >= _SMALLEST_NORMAL:
-        return _SMALLEST_NORMAL
-    return math.ldexp(1.0, math.frexp(a)[1] - 1)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -192,7 +65,7 @@ def _initial(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float
     :mod:`catenary.solve.length_newton`)."""
     c = hypot(x, z)
     cos_t, sin_t = x / c, z / c
-    Tm = _nanmax(T - 0.5 * w * z if at_b else T + 0.5 * w * z, 0.5 * T)
+    Tm = nanmax(T - 0.5 * w * z if at_b else T + 0.5 * w * z, 0.5 * T)
     t = 0.5 * w * x / Tm
     Ls = c + (t * t) * (c / 6.0)
     L0 = Ls / (1.0 + Tm * inv_EA)
@@ -204,6 +77,22 @@ def _initial(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float
     if p < 0.01:
         p, q = 0.01, math.copysign(math.sqrt(1.0 - 1e-4), q)
     return p, q, L0
+
+
+#: Outcomes of one Newton step (:func:`_newton_step`): go on, converged on the taut
+#: branch, stopped without (a small step off the fit or the branch, or a step to a
+#: non-finite point), and a limit of the span formulas.
+_GO_ON, _DONE, _STOPPED, _IRREGULAR = 0, 1, 2, 3
+#: :func:`_length_start`'s code of data for Newton.
+_NEWTON = -1
+#: Cables whose Newton steps run interleaved in a batch (:func:`_length_block`). A
+#: step is one chain of dependent divisions, square roots and an ``asinh``, whose
+#: latency bounds one cable at a time; the core overlaps the chains of independent
+#: cables (measured, one thread: 1.4x on cables of one kind, 1.1x on a mix whose
+#: branches the core mispredicts, where 4 lanes do worse).
+LANES = 2
+#: Cables per parallel task of :func:`solve_length_cables_parallel`.
+_BLOCK = 256
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -225,37 +114,49 @@ def _newton_from(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: flo
     """:func:`_newton_length` from the start ``(p, q, l0)``."""
     tol = RES_TOL * hypot(x, z)
     for its in range(1, max_iter + 1):
-        h = T * p
-        v = T * q if at_b else T * q + w * l0
-        va = v - w * l0 if at_b else T * q
-        xs, zs, fxx, fxz, fzz, ta, tb, regular = _spans_flex(h, v, l0, w, inv_EA, True)
-        if not regular:
-            return p, q, l0, False, its, False
-        rx, rz = xs - x, zs - z
-        if at_b:
-            xp, zp = h * fxz - v * fxx, h * fzz - v * fxz
-            kk = 1.0 / ta + inv_EA
-            xl, zl = h * kk, (v - w * l0) * kk
-        else:
-            xp, zp = h * fxz - va * fxx, h * fzz - va * fxz
-            kk = 1.0 / tb + inv_EA
-            xl, zl = h * kk, v * kk
-        det = xp * zl - xl * zp
-        dp = (xl * rz - zl * rx) / det
-        dl = (zp * rx - xp * rz) / det
-        ln = _clip(l0 + dl, 0.5 * l0, 2.0 * l0)
-        if dp * q > 0.9 * p:  # keep H > 0
-            dp = 0.9 * p / q
-        r = 1.0 / math.sqrt(1.0 + dp * dp)
-        pn, qn = (p - dp * q) * r, (q + dp * p) * r
-        small = abs(dp) <= rtol and abs(dl) <= rtol * l0
-        fit = abs(rx) <= tol and abs(rz) <= tol
-        if not (math.isfinite(pn) and math.isfinite(qn) and math.isfinite(ln)):
-            return p, q, l0, False, its, True
-        p, q, l0 = pn, qn, ln
-        if small:  # the taut branch has det < 0 at its root
-            return p, q, l0, fit and det < 0.0, its, True
+        p, q, l0, outcome = _newton_step(at_b, x, z, T, w, inv_EA, p, q, l0, rtol, tol)
+        if outcome != _GO_ON:
+            return p, q, l0, outcome == _DONE, its, outcome != _IRREGULAR
     return p, q, l0, False, max_iter, True
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _newton_step(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float,
+                 p: float, q: float, l0: float, rtol: float, tol: float
+                 ) -> tuple[float, float, float, int]:
+    """One step of :func:`_newton_from` from ``(p, q, l0)`` (``tol``: the span
+    residual of a fit): the new point and the outcome (``_GO_ON``, ``_DONE``,
+    ``_STOPPED``, ``_IRREGULAR``); the point stays where the step is not taken."""
+    h = T * p
+    v = T * q if at_b else T * q + w * l0
+    va = v - w * l0 if at_b else T * q
+    xs, zs, fxx, fxz, fzz, ta, tb, regular = spans_flex(h, v, l0, w, inv_EA, True)
+    if not regular:
+        return p, q, l0, _IRREGULAR
+    rx, rz = xs - x, zs - z
+    if at_b:
+        xp, zp = h * fxz - v * fxx, h * fzz - v * fxz
+        kk = 1.0 / ta + inv_EA
+        xl, zl = h * kk, (v - w * l0) * kk
+    else:
+        xp, zp = h * fxz - va * fxx, h * fzz - va * fxz
+        kk = 1.0 / tb + inv_EA
+        xl, zl = h * kk, v * kk
+    det = xp * zl - xl * zp
+    dp = (xl * rz - zl * rx) / det
+    dl = (zp * rx - xp * rz) / det
+    ln = clip(l0 + dl, 0.5 * l0, 2.0 * l0)
+    if dp * q > 0.9 * p:  # keep H > 0
+        dp = 0.9 * p / q
+    r = 1.0 / math.sqrt(1.0 + dp * dp)
+    pn, qn = (p - dp * q) * r, (q + dp * p) * r
+    if not (math.isfinite(pn) and math.isfinite(qn) and math.isfinite(ln)):
+        return p, q, l0, _STOPPED
+    if abs(dp) <= rtol and abs(dl) <= rtol * l0:
+        # The taut branch has det < 0 at its root.
+        fit = abs(rx) <= tol and abs(rz) <= tol
+        return pn, qn, ln, _DONE if fit and det < 0.0 else _STOPPED
+    return pn, qn, ln, _GO_ON
 
 
 @njit(cache=True, error_model="numpy")
@@ -285,20 +186,47 @@ def _length_values(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: f
     :data:`INFEASIBLE` (0 iterations, as the numpy path), or the taut member polished
     by the same Newton (its iterations added), the numpy path's bracketing search and
     polish."""
+    code, ell, F, xs, zs, Ts, ws, ies, decide = _length_start(at_b, x, z, T, w, inv_EA,
+                                                              decide)
+    if code != _NEWTON:
+        return code, np.nan, np.nan, np.nan, np.nan, 0
+    p, q, l0, converged, its, regular = _newton_length(at_b, xs, zs, Ts, ws, ies, rtol,
+                                                      max_iter)
+    return _length_finish(at_b, xs, zs, Ts, ws, ies, ell, F, p, q, l0, converged, its,
+                          regular, decide, rtol, max_iter)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _length_start(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float,
+                  decide: bool) -> tuple[int, float, float, float, float, float, float,
+                                         float, bool]:
+    """The part of :func:`_length_values` before Newton: ``(code, ell, F, x, z, T, w,
+    inv_EA, decide)``, the data in units of ``ell`` (m) and ``F`` (N); the code is
+    ``_NEWTON`` for data Newton takes on, else :data:`FALLBACK` or :data:`INFEASIBLE`."""
     nan = np.nan
     if not (x > 0.0 and T > 0.0 and 0.0 <= w < np.inf and 0.0 <= inv_EA < np.inf
             and math.isfinite(x) and math.isfinite(z) and math.isfinite(T)):
-        return FALLBACK, nan, nan, nan, nan, 0  # the numpy path decides
-    ell, F = _power_of_two(hypot(x, z)), _power_of_two(T)
+        return FALLBACK, nan, nan, nan, nan, nan, nan, nan, False  # the numpy path decides
+    ell, F = power_of_two(hypot(x, z)), power_of_two(T)
     xs, zs, Ts = x / ell, z / ell, T / F
     ws, ies = (w / F) * ell, inv_EA * F
     if not math.isfinite(ws * ies):
-        return FALLBACK, nan, nan, nan, nan, 0
+        return FALLBACK, nan, nan, nan, nan, nan, nan, nan, False
     decide = decide and ws > 0.0
     if decide and family_decision(at_b, xs, zs, Ts, ws, ies, False)[0] == NO_MEMBER:
-        return INFEASIBLE, nan, nan, nan, nan, 0
-    p, q, l0, converged, its, regular = _newton_length(at_b, xs, zs, Ts, ws, ies, rtol,
-                                                      max_iter)
+        return INFEASIBLE, nan, nan, nan, nan, nan, nan, nan, False
+    return _NEWTON, ell, F, xs, zs, Ts, ws, ies, decide
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _length_finish(at_b: bool, xs: float, zs: float, Ts: float, ws: float, ies: float,
+                   ell: float, F: float, p: float, q: float, l0: float, converged: bool,
+                   its: int, regular: bool, decide: bool, rtol: float, max_iter: int
+                   ) -> tuple[int, float, float, float, float, int]:
+    """The part of :func:`_length_values` after Newton (which ended at ``(p, q, l0)``):
+    the family's decision where Newton did not settle the cable, the certificate, and
+    the values in newtons and metres."""
+    nan = np.nan
     if not converged and decide and regular:  # where the numpy path brackets
         outcome, p, q, l0 = family_decision(at_b, xs, zs, Ts, ws, ies, True)
         if outcome == NO_MEMBER:
@@ -334,19 +262,9 @@ def _certified(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float
     if not (math.isfinite(H) and math.isfinite(V_B) and math.isfinite(L0) and H >= 0
             and L0 > 0):
         return False
-    xs, zs = _spans(H, V_B, L0, w, inv_EA, True)[:2]
+    xs, zs = spans(H, V_B, L0, w, inv_EA, True)[:2]
     tol = RES_TOL * hypot(x, z)
     return abs(xs - x) <= tol and abs(zs - z) <= tol
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _valid(x: float, z: float, third: float, w: float, EA: float, length: bool) -> bool:
-    """The checks of :func:`catenary.solve.common.prepare`: ``x, w >= 0`` finite, ``z``
-    finite, the tension ``>= 0`` finite (``length``) or ``L0 > 0`` finite, ``EA > 0``
-    (``inf`` allowed)."""
-    third_ok = (third >= 0.0) if length else (third > 0.0)
-    return (0.0 <= x < np.inf and -np.inf < z < np.inf and third_ok and third < np.inf
-            and 0.0 <= w < np.inf and EA > 0.0)
 
 
 @njit(cache=True, error_model="numpy")
@@ -363,10 +281,8 @@ def solve_length_cables(at_b: bool, x: NDArray, z: NDArray, T: NDArray, w: NDArr
     shows it) and the taut root of cables Newton does not settle. Returns the number
     of cables not :data:`CONVERGED`.
     """
-    unsettled = 0
-    for i in range(out.shape[1]):
-        unsettled += _length_entry(at_b, x, z, T, w, EA, rtol, max_iter, out, ints, i)
-    return unsettled
+    return _length_block(at_b, x, z, T, w, EA, rtol, max_iter, out, ints, 0,
+                         out.shape[1])
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
@@ -375,32 +291,93 @@ def solve_length_cables_parallel(at_b: bool, x: NDArray, z: NDArray, T: NDArray,
                                  out: NDArray, ints: NDArray) -> int:
     """:func:`solve_length_cables` over threads (a separate kernel: calling one compiled
     with ``parallel=True`` starts numba's threading layer, which a forked child of the
-    process could not use)."""
+    process could not use), in blocks of ``_BLOCK`` cables."""
+    n = out.shape[1]
     unsettled = 0
-    for k in prange(out.shape[1]):
-        # An int64 index: the serial kernel's compiled _length_entry serves (a prange
+    for b in prange((n + _BLOCK - 1) // _BLOCK):
+        # int64 bounds: the serial kernel's compiled _length_block serves (a prange
         # index is unsigned, and compiling another costs seconds).
-        unsettled += _length_entry(at_b, x, z, T, w, EA, rtol, max_iter, out, ints,
-                                   np.int64(k))
+        j = np.int64(b)
+        unsettled += _length_block(at_b, x, z, T, w, EA, rtol, max_iter, out, ints,
+                                   j * _BLOCK, min(n, (j + 1) * _BLOCK))
     return unsettled
 
 
 @njit(cache=True, error_model="numpy")
-def _length_entry(at_b: bool, x: NDArray, z: NDArray, T: NDArray, w: NDArray,
+def _length_block(at_b: bool, x: NDArray, z: NDArray, T: NDArray, w: NDArray,
                   EA: NDArray, rtol: float, max_iter: int, out: NDArray, ints: NDArray,
-                  k: int) -> int:
-    """Cable ``k`` of :func:`solve_length_cables`; 1 if not :data:`CONVERGED`, else 0."""
-    j = np.int64(k)  # a prange index is unsigned: mixed with 0 it would become a float
-    xk, zk, Tk = x[j if x.size > 1 else 0], z[j if z.size > 1 else 0], T[j if T.size > 1 else 0]
-    wk, EAk = w[j if w.size > 1 else 0], EA[j if EA.size > 1 else 0]
-    if not _valid(xk, zk, Tk, wk, EAk, True):
-        ints[0, k], ints[1, k] = INVALID, 0
-        return 1
-    code, H, V_B, V_A, L0, its = _length_values(at_b, xk, zk, Tk, wk, 1.0 / EAk, rtol,
-                                                max_iter, True)
-    ints[0, k], ints[1, k] = code, its
-    out[0, k], out[1, k], out[2, k], out[3, k] = H, V_B, V_A, L0
-    return 0 if code == CONVERGED else 1
+                  start: int, stop: int) -> int:
+    """Cables ``start .. stop - 1`` of :func:`solve_length_cables`, in groups of
+    :data:`LANES`; returns how many are not :data:`CONVERGED`.
+
+    Each cable goes through the arithmetic of :func:`_length_values` (the same results
+    and iterations, bit for bit): its start, Newton, its finish; only the Newton steps
+    of a group's cables run interleaved (:func:`_lockstep`)."""
+    unsettled = 0
+    data = np.empty((LANES, 8))  # x, z, T, w, inv_EA (in units), ell, F, span tolerance
+    state = np.empty((LANES, 3))  # p, q, l0
+    lane = np.empty((LANES, 4), dtype=np.int64)  # cable, decide, outcome, iterations
+    for g in range(start, stop, LANES):
+        count = 0
+        for k in range(g, min(g + LANES, stop)):
+            xk, zk = x[k if x.size > 1 else 0], z[k if z.size > 1 else 0]
+            Tk, wk, EAk = T[k if T.size > 1 else 0], w[k if w.size > 1 else 0], EA[
+                k if EA.size > 1 else 0]
+            if not valid(xk, zk, Tk, wk, EAk, True):
+                ints[0, k], ints[1, k] = INVALID, 0
+                unsettled += 1
+                continue
+            code, ell, F, xs, zs, Ts, ws, ies, decide = _length_start(
+                at_b, xk, zk, Tk, wk, 1.0 / EAk, True)
+            if code != _NEWTON:
+                ints[0, k], ints[1, k] = code, 0
+                out[0, k] = out[1, k] = out[2, k] = out[3, k] = np.nan
+                unsettled += 1
+                continue
+            state[count, 0], state[count, 1], state[count, 2] = _initial(at_b, xs, zs, Ts,
+                                                                          ws, ies)
+            data[count, 0], data[count, 1], data[count, 2] = xs, zs, Ts
+            data[count, 3], data[count, 4], data[count, 5], data[count, 6] = ws, ies, ell, F
+            data[count, 7] = RES_TOL * hypot(xs, zs)
+            lane[count, 0], lane[count, 1] = k, 1 if decide else 0
+            lane[count, 2], lane[count, 3] = _GO_ON, max_iter
+            count += 1
+        _lockstep(at_b, data, state, lane, count, rtol, max_iter)
+        for j in range(count):
+            outcome, k = lane[j, 2], lane[j, 0]
+            code, H, V_B, V_A, L0, its = _length_finish(
+                at_b, data[j, 0], data[j, 1], data[j, 2], data[j, 3], data[j, 4],
+                data[j, 5], data[j, 6], state[j, 0], state[j, 1], state[j, 2],
+                outcome == _DONE, lane[j, 3], outcome != _IRREGULAR, lane[j, 1] != 0,
+                rtol, max_iter)
+            ints[0, k], ints[1, k] = code, its
+            out[0, k], out[1, k], out[2, k], out[3, k] = H, V_B, V_A, L0
+            unsettled += 0 if code == CONVERGED else 1
+    return unsettled
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _lockstep(at_b: bool, data: NDArray, state: NDArray, lane: NDArray, count: int,
+              rtol: float, max_iter: int) -> None:
+    """:func:`_newton_from` of the first ``count`` lanes of :func:`_length_block`, step
+    by step in turn (each lane's steps are its own: a lane that stops stays put).
+    ``state`` gets each lane's last point, ``lane[:, 2:4]`` its outcome (``_GO_ON``
+    where it ran out of iterations) and iterations."""
+    for its in range(1, max_iter + 1):
+        busy = False
+        for j in range(count):
+            if lane[j, 2] != _GO_ON:
+                continue
+            p, q, l0, outcome = _newton_step(
+                at_b, data[j, 0], data[j, 1], data[j, 2], data[j, 3], data[j, 4],
+                state[j, 0], state[j, 1], state[j, 2], rtol, data[j, 7])
+            state[j, 0], state[j, 1], state[j, 2] = p, q, l0
+            if outcome == _GO_ON:
+                busy = True
+            else:
+                lane[j, 2], lane[j, 3] = outcome, its
+        if not busy:
+            return
 
 
 @njit(cache=True, error_model="numpy")
@@ -429,13 +406,13 @@ def _initial_forces(x: float, z: float, L0: float, w: float, inv_EA: float
     if e > 1e-3 * c:  # deeper sag: the inextensible catenary with this length
         R = math.sqrt(L0 - z) * math.sqrt(L0 + z) / x
         logR = math.log(R)
-        lam = _nanmax(math.sqrt(6.0 * (R - 1.0)), logR + math.log(2.0 * logR + 2.0))
+        lam = nanmax(math.sqrt(6.0 * (R - 1.0)), logR + math.log(2.0 * logR + 2.0))
         if R < 1.2:
             lam = math.sqrt(6.0 * (R - 1.0))
         for _ in range(30):
             lsh = lam + math.log1p(-math.exp(-2.0 * lam)) - math.log(2.0) - math.log(lam)
             d = 1.0 / math.tanh(lam) - 1.0 / lam
-            lam = _nanmax(lam - (lsh - logR) / d, 0.5 * lam)
+            lam = nanmax(lam - (lsh - logR) / d, 0.5 * lam)
         Hs = w * x / (2.0 * lam)
         Vs = 0.5 * w * (z / math.tanh(lam) + L0)
         if math.isfinite(Hs):
@@ -462,9 +439,9 @@ def _newton_forces(x: float, z: float, L0: float, w: float, inv_EA: float, H: fl
         dh = -(fzz * rx - fxz * rz) / det
         dv = -(fxx * rz - fxz * rx) / det
         its += 1
-        hn = _clip(H + dh, 0.1 * H, 10.0 * H)
+        hn = clip(H + dh, 0.1 * H, 10.0 * H)
         fscale = math.hypot(H, V) + w * L0
-        vn = V + _clip(dv, -10 * fscale, 10 * fscale)
+        vn = V + clip(dv, -10 * fscale, 10 * fscale)
         ok = math.isfinite(hn) and math.isfinite(vn)
         small_step = abs(dh) <= rtol * H and abs(dv) <= rtol * fscale
         tiny_res = (abs(rx) <= 2 * EPS * (x + L0)) and (abs(rz) <= 2 * EPS * (abs(z) + L0))
@@ -508,8 +485,8 @@ def _forces_values(x: float, z: float, L0: float, w: float, inv_EA: float, rtol:
     if not x > 1e-15 * c or (inv_EA == 0.0 and L0 <= c):
         return FALLBACK, nan, nan, 0
     stretching = (c - L0) / (L0 * inv_EA) if c > L0 else 0.0
-    force_scale = _nanmax(w * max(c, L0), stretching)
-    ell, F = _power_of_two(c), _power_of_two(force_scale)
+    force_scale = nanmax(w * max(c, L0), stretching)
+    ell, F = power_of_two(c), power_of_two(force_scale)
     ws, ies = (w / F) * ell, inv_EA * F
     if not (math.isfinite(force_scale) and math.isfinite(ws * ies)):
         return FALLBACK, nan, nan, 0
@@ -521,7 +498,7 @@ def _forces_values(x: float, z: float, L0: float, w: float, inv_EA: float, rtol:
     H, V = H * F, V * F
     if not (math.isfinite(H) and math.isfinite(V) and H >= 0.0):
         return FALLBACK, nan, nan, its
-    xc, zc = _spans(H, V, L0, w, inv_EA, False)[:2]
+    xc, zc = spans(H, V, L0, w, inv_EA, False)[:2]
     tol = RES_TOL * c
     if not (abs(xc - x) <= tol and abs(zc - z) <= tol):
         return FALLBACK, nan, nan, its
@@ -562,7 +539,7 @@ def _forces_entry(x: NDArray, z: NDArray, L0: NDArray, w: NDArray, EA: NDArray,
     j = np.int64(k)  # a prange index is unsigned: mixed with 0 it would become a float
     xk, zk, Lk = x[j if x.size > 1 else 0], z[j if z.size > 1 else 0], L0[j if L0.size > 1 else 0]
     wk, EAk = w[j if w.size > 1 else 0], EA[j if EA.size > 1 else 0]
-    if not _valid(xk, zk, Lk, wk, EAk, False):
+    if not valid(xk, zk, Lk, wk, EAk, False):
         ints[0, k], ints[1, k] = INVALID, 0
         return 1
     code, H, V, its = _forces_values(xk, zk, Lk, wk, 1.0 / EAk, rtol, max_iter)

@@ -96,6 +96,34 @@ def test_compiled_solve_length_matches_numpy(seed, end):
     np.testing.assert_array_equal(solve_length_compiled(x, z, T, w, EA, end=end).L0, got.L0)
 
 
+@pytest.mark.parametrize("end", ["B", "A"])
+def test_interleaved_cables_match_each_cable_alone(end):
+    """The batch kernel runs the Newton steps of ``LANES`` cables in turn: each cable's
+    outcome is bit for bit that of the cable solved alone (a batch of one), over a mix
+    that ends in every code (converged, infeasible, fallback, invalid) and steps."""
+    x, z, T, w, EA = random_cables(7, 600)
+    x[10], T[11], EA[12] = -1.0, np.nan, 0.0  # invalid data
+    n = x.size
+    out, ints = np.full((4, n), -7.0), np.full((2, n), -7, dtype=np.int64)
+    unsettled = kernels.solve_length_cables(end == "B", x, z, T, w, EA, 1e-9, 30, out, ints)
+    alone_out, alone_ints = np.full((4, n), -7.0), np.full((2, n), -7, dtype=np.int64)
+    for k in range(n):
+        one = slice(k, k + 1)
+        kernels.solve_length_cables(end == "B", x[one], z[one], T[one], w[one], EA[one],
+                                    1e-9, 30, alone_out[:, one], alone_ints[:, one])
+    np.testing.assert_array_equal(ints, alone_ints)
+    np.testing.assert_array_equal(out, alone_out)  # NaN where not converged, both
+    assert unsettled == (ints[0] != kernels.CONVERGED).sum()
+    assert set(np.unique(ints[0])) == {kernels.CONVERGED, kernels.FALLBACK, kernels.INVALID,
+                                       kernels.INFEASIBLE}
+    assert len(np.unique(ints[1][ints[0] == kernels.CONVERGED])) >= 3
+    parallel_out, parallel_ints = np.full((4, n), -7.0), np.full((2, n), -7, dtype=np.int64)
+    kernels.solve_length_cables_parallel(end == "B", x, z, T, w, EA, 1e-9, 30,
+                                         parallel_out, parallel_ints)
+    np.testing.assert_array_equal(parallel_ints, ints)
+    np.testing.assert_array_equal(parallel_out, out)
+
+
 def forces_scale(ref, chord, L0):
     """Bound on the forces' disagreement (N): 1e-12 of the tension at B, more for cables
     nearly as long as their chord, whose forces are ill-conditioned: a relative change

@@ -1,0 +1,173 @@
+"""Compiled (numba) span equations of one elastic catenary and the scalar helpers the
+solvers of :mod:`catenary.solve.kernels` share: spans, flexibility and end tensions
+(:func:`spans_one`, the kernel twin of :func:`catenary.elastic.evaluate`, the numpy
+reference), ``hypot`` on safe squares, the power-of-two units, and the argument checks.
+Imports numpy and numba only.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+__all__ = ["EPS", "RES_TOL", "T_TOL", "clip", "hypot", "nanmax", "power_of_two", "spans",
+           "spans_flex", "spans_one", "valid"]
+
+RES_TOL = 1e-8
+EPS = float(np.finfo(np.float64).eps)
+T_TOL = 1e-9
+_SERIES_CUT = 0.1
+_SMALLEST_NORMAL = 2.0**-1022
+_LARGEST_POWER = 2.0**1023
+_ASINHC_M1 = np.array([-1 / 6, 3 / 40, -5 / 112, 35 / 1152, -63 / 2816, 231 / 13312,
+                       -143 / 10240, 6435 / 557056])
+_G_SERIES = np.array([1 / 3, -3 / 10, 15 / 56, -35 / 144, 315 / 1408, -693 / 3328,
+                      1001 / 5120, -6435 / 34816])
+
+
+#: Magnitudes between which ``sqrt(a * a + b * b)`` neither overflows nor loses the
+#: larger square to underflow (:func:`hypot`).
+_SQUARES_SAFE = (1e-150, 1e150)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def hypot(a: float, b: float) -> float:
+    """``sqrt(a^2 + b^2)`` as :func:`math.hypot` to rounding; a square root where the
+    squares are safe (the solves' nondimensional data always are), else libm's
+    ``hypot``, a call several times as long. NaN and inf as :func:`math.hypot`."""
+    big = max(abs(a), abs(b))
+    if _SQUARES_SAFE[0] < big < _SQUARES_SAFE[1]:
+        return math.sqrt(a * a + b * b)
+    return math.hypot(a, b)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _poly(coeffs: NDArray, u2: float) -> float:
+    acc = coeffs[-1]
+    for k in range(coeffs.size - 2, -1, -1):
+        acc = acc * u2 + coeffs[k]
+    return acc
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _g(a: float, asinh_a: float) -> float:
+    """``asinh(a) - a / sqrt(1 + a^2)`` without cancellation, given ``asinh(a)`` (the
+    spans computed it already)."""
+    a2 = a * a
+    if abs(a) < _SERIES_CUT:
+        return a * a2 * _poly(_G_SERIES, a2)
+    return asinh_a - math.copysign(1.0, a) / math.sqrt(1.0 + 1.0 / a2)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def spans(H: float, V_B: float, L0: float, w: float, inv_EA: float, fast: bool
+          ) -> tuple[float, float, float, float, float, float, float, float, bool, bool,
+                     float, float]:
+    """The spans part of :func:`spans_one`: ``(x, z, V_A, T_A, T_B, rho, qm1, S,
+    opposite, regular, asinh(V_B / H), asinh(V_A / H))`` (``qm1`` only where not
+    ``opposite``, the two ``asinh`` only where it is: each is needed only there).
+    ``fast``: the end tensions by :func:`hypot` (the length solve, on nondimensional
+    data), else by libm's (the force solve: near a taut inextensible cable its forces
+    follow the last bit of the tensions, and the numpy path's iterations with them)."""
+    wL = w * L0
+    V_A = V_B - wL
+    if fast:
+        T_A, T_B = hypot(H, V_A), hypot(H, V_B)
+    else:
+        T_A, T_B = math.hypot(H, V_A), math.hypot(H, V_B)
+    S, TS = V_A + V_B, T_A + T_B
+    rho = S / (V_B * T_A + V_A * T_B)
+    HL = H * L0
+    opposite = V_A < 0.0 and V_B > 0.0
+    qm1 = ash_b = ash_a = 0.0
+    if opposite:
+        ash_b, ash_a = math.asinh(V_B / H), math.asinh(V_A / H)
+        x_c = H / w * (ash_b - ash_a)
+    else:
+        u = wL * rho
+        if abs(u) < _SERIES_CUT:
+            qm1 = u * u * _poly(_ASINHC_M1, u * u)
+            q = 1.0 + qm1
+        else:
+            q = math.asinh(u) / u
+            qm1 = q - 1.0
+        x_c = HL * rho * q
+    z_c = L0 * S / TS
+    regular = math.isfinite(x_c) and H != 0.0 and not abs(S) < 1e-150 * H
+    x = HL * inv_EA + x_c
+    z = 0.5 * L0 * S * inv_EA + z_c
+    return x, z, V_A, T_A, T_B, rho, qm1, S, opposite, regular, ash_b, ash_a
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def spans_one(H: float, V_B: float, L0: float, w: float, inv_EA: float
+              ) -> tuple[float, float, float, float, float, float, float, bool]:
+    """Spans, flexibility and end tensions of one cable, ``(x, z, F_xx, F_xz, F_zz,
+    T_A, T_B, regular)`` (:func:`catenary.elastic.evaluate`); ``regular`` is False
+    at the degenerate limits (vertical cable, ``|V_A + V_B| << H``), which the numpy
+    path handles."""
+    return spans_flex(H, V_B, L0, w, inv_EA, False)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def spans_flex(H: float, V_B: float, L0: float, w: float, inv_EA: float, fast: bool
+               ) -> tuple[float, float, float, float, float, float, float, bool]:
+    """:func:`spans_one`, the end tensions as :func:`spans` computes them with
+    ``fast``."""
+    x, z, V_A, T_A, T_B, rho, qm1, S, opposite, regular, ash_b, ash_a = spans(
+        H, V_B, L0, w, inv_EA, fast)
+    TS, HL = T_A + T_B, H * L0
+    TT, H2 = T_A * T_B, H * H
+    F_xz = -HL * S / (TT * TS)
+    if opposite:  # asinh is odd: asinh(-V_A / H) = -asinh(V_A / H)
+        F_xx = (_g(V_B / H, ash_b) + _g(-V_A / H, -ash_a)) / w
+        F_zz = (V_B / T_B - V_A / T_A) / w
+    else:
+        VA2, VB2 = V_A * V_A, V_B * V_B
+        prod_m_h2 = (H2 * (VA2 + VB2) + VA2 * VB2) / (TT + H2)
+        Lrho = L0 * rho
+        F_xx = Lrho * (qm1 + prod_m_h2 / TT)
+        F_zz = H2 * Lrho / TT
+    base = L0 * inv_EA
+    return x, z, base + F_xx, F_xz, base + F_zz, T_A, T_B, regular
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def clip(a: float, lo: float, hi: float) -> float:
+    """``numpy.clip`` of one number (NaN stays NaN)."""
+    if a != a:
+        return a
+    return min(max(a, lo), hi)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def nanmax(a: float, b: float) -> float:
+    """``numpy.maximum`` of two numbers (NaN if either is)."""
+    if a != a or b != b:
+        return np.nan
+    return max(a, b)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def power_of_two(scale: float) -> float:
+    """:func:`catenary.elastic.power_of_two` of one number: ``p <= |scale| < 2 p``,
+    within ``[2**-1022, 2**1023]``."""
+    a = abs(scale)
+    if not a < np.inf:
+        return _LARGEST_POWER
+    if not a >= _SMALLEST_NORMAL:
+        return _SMALLEST_NORMAL
+    return math.ldexp(1.0, math.frexp(a)[1] - 1)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def valid(x: float, z: float, third: float, w: float, EA: float, length: bool) -> bool:
+    """The checks of :func:`catenary.solve.common.prepare`: ``x, w >= 0`` finite, ``z``
+    finite, the tension ``>= 0`` finite (``length``) or ``L0 > 0`` finite, ``EA > 0``
+    (``inf`` allowed)."""
+    third_ok = (third >= 0.0) if length else (third > 0.0)
+    return (0.0 <= x < np.inf and -np.inf < z < np.inf and third_ok and third < np.inf
+            and 0.0 <= w < np.inf and EA > 0.0)
