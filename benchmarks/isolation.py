@@ -137,6 +137,9 @@ def load_compiled_kernels() -> None:
             to.Distributor(robot, "min_norm", "qpsolvers:daqp")(home)
     for end in ("B", "A"):
         catenary.solve_length(10.0, -2.0, 500.0, 2.0, EA=1e6, end=end)
+        # Vectors with numbers for w and EA: the kernel's variant for a robot's cables.
+        catenary.solve_length(np.array([10.0]), np.array([-2.0]), np.array([500.0]), 2.0,
+                              EA=1e6, end=end)
     catenary.solve_forces(10.0, -2.0, 10.5, 2.0, EA=1e6)
     _LOADED.append(True)
 

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from .common import CONVERGED, STATUS_DTYPE, FloatArray
 
 __all__ = ["all_converged", "all_true", "flat_arguments", "load_kernels", "new_result",
-           "run_cables", "take"]
+           "run_cables", "serial_entry", "take"]
 
 T = TypeVar("T")
 
@@ -40,25 +40,35 @@ _FORKED = [False]
 os.register_at_fork(after_in_child=lambda: _FORKED.__setitem__(0, True))
 
 
-def run_cables(name: str, n: int, *args: object) -> int:
+def run_cables(name: str, n: int, *args: object, variant: str = "") -> int:
     """Kernel ``name`` of :mod:`catenary.solve.kernels` over ``n`` cables: its parallel
     variant (one launch at a time) from ``PARALLEL_FROM`` cables in a process that is no
     forked child, else the serial one (which starts no threading layer).
 
     Every array in ``args`` is C-contiguous with the dtype of its kind (the flat float64
     arguments of :func:`flat_arguments`, the result arrays the callers allocate), so
-    the serial kernel is called through its entry point (:func:`_entry`)."""
+    the serial kernel is called through its entry point (:func:`_entry`); ``variant``
+    names another choice of argument types (numbers in place of arrays), whose entry
+    point is kept apart."""
     kernels = load_kernels()
     if n >= kernels.PARALLEL_FROM and not _FORKED[0]:
         with _LAUNCH:
             return getattr(kernels, f"{name}_parallel")(*args)
-    entry = _ENTRIES.get(name)
+    return serial_entry(name, args, variant)(*args)
+
+
+def serial_entry(name: str, args: tuple[object, ...], variant: str = ""
+                 ) -> Callable[..., int]:
+    """The entry point (:func:`_entry`) of the serial kernel ``name`` for arguments of
+    the types of ``args``, made on the first call for each ``variant``; the contract of
+    :func:`run_cables` on the arguments holds."""
+    entry = _ENTRIES.get(name + variant)
     if entry is None:
-        entry = _ENTRIES[name] = _entry(getattr(kernels, name), args)
-    return entry(*args)
+        entry = _ENTRIES[name + variant] = _entry(getattr(load_kernels(), name), args)
+    return entry
 
 
-#: Entry points of the serial kernels, by name (:func:`_entry`).
+#: Entry points of the serial kernels, by name and variant (:func:`_entry`).
 _ENTRIES: dict[str, Callable[..., int]] = {}
 
 
@@ -142,28 +152,31 @@ def new_result(cls: type[T], **fields: object) -> T:
     return result
 
 
-def take(a: FloatArray, idx: NDArray[np.intp]) -> FloatArray:
+def take(a: FloatArray | float, idx: NDArray[np.intp]) -> FloatArray:
     """Entries ``idx`` of a flat argument of :func:`flat_arguments` (its single value
-    repeated if it has one)."""
+    repeated if it has one), or of a number for every cable."""
+    if isinstance(a, float):
+        return np.full(idx.size, a)
     return a[idx] if a.size > 1 else np.full(idx.size, a[0])
 
 
 def all_converged(n: int) -> NDArray[np.str_]:
     """A status array of ``n`` cables, all ``"converged"`` (a fresh copy)."""
-    return _fresh(_CONVERGED_ROW, n)
+    row = _CONVERGED_ROW[0]
+    return (row if row.size >= n else _grown(_CONVERGED_ROW, n))[:n].copy()
 
 
 def all_true(n: int) -> NDArray[np.bool_]:
     """A boolean array of ``n`` entries, all True (a fresh copy; ``np.ones`` costs
     several times as much for a few cables)."""
-    return _fresh(_TRUE_ROW, n)
+    row = _TRUE_ROW[0]
+    return (row if row.size >= n else _grown(_TRUE_ROW, n))[:n].copy()
 
 
-def _fresh(store: list[NDArray[Any]], n: int) -> NDArray[Any]:
-    """The first ``n`` entries of the row kept in ``store`` (whose entries are all
-    equal), copied; the row is grown, with the same value, when it is too short."""
+def _grown(store: list[NDArray[Any]], n: int) -> NDArray[Any]:
+    """The row kept in ``store`` (whose entries are all equal) grown, with the same
+    value, to at least ``n`` entries."""
     row = store[0]
-    if row.size < n:
-        row = np.full(max(n, 2 * row.size), row[0], dtype=row.dtype)
-        store[0] = row
-    return row[:n].copy()
+    row = np.full(max(n, 2 * row.size), row[0], dtype=row.dtype)
+    store[0] = row
+    return row

@@ -35,6 +35,7 @@ from .kernels_spans import (
     EPS,
     RES_TOL,
     T_TOL,
+    at,
     clip,
     hypot,
     nanmax,
@@ -273,7 +274,8 @@ def solve_length_cables(at_b: bool, x: NDArray, z: NDArray, T: NDArray, w: NDArr
                        ints: NDArray) -> int:
     """:func:`solve_length_one` over ``n = out.shape[1]`` cables in the calling thread.
 
-    ``x, z, T, w, EA`` have ``n`` entries or one (the same for every cable). ``out``
+    ``x, z, T, w, EA`` have ``n`` entries or one (the same for every cable; ``w`` and
+    ``EA`` may also be numbers, which compiles another variant). ``out``
     (4, n) gets rows ``(H, V_B, V_A, L0)``; ``ints`` (2, n) the code
     (:data:`CONVERGED`, :data:`INFEASIBLE`, :data:`FALLBACK`, or :data:`INVALID` for
     data the numpy path rejects) and the iterations. Beyond :func:`solve_length_one`,
@@ -320,9 +322,7 @@ def _length_block(at_b: bool, x: NDArray, z: NDArray, T: NDArray, w: NDArray,
     for g in range(start, stop, LANES):
         count = 0
         for k in range(g, min(g + LANES, stop)):
-            xk, zk = x[k if x.size > 1 else 0], z[k if z.size > 1 else 0]
-            Tk, wk, EAk = T[k if T.size > 1 else 0], w[k if w.size > 1 else 0], EA[
-                k if EA.size > 1 else 0]
+            xk, zk, Tk, wk, EAk = at(x, k), at(z, k), at(T, k), at(w, k), at(EA, k)
             if not valid(xk, zk, Tk, wk, EAk, True):
                 ints[0, k], ints[1, k] = INVALID, 0
                 unsettled += 1

@@ -10,10 +10,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 from numpy.typing import NDArray
 
-__all__ = ["EPS", "RES_TOL", "T_TOL", "clip", "hypot", "nanmax", "power_of_two", "spans",
+__all__ = ["EPS", "RES_TOL", "T_TOL", "at", "clip", "hypot", "nanmax", "power_of_two", "spans",
            "spans_flex", "spans_one", "valid"]
 
 RES_TOL = 1e-8
@@ -171,3 +172,25 @@ def valid(x: float, z: float, third: float, w: float, EA: float, length: bool) -
     third_ok = (third >= 0.0) if length else (third > 0.0)
     return (0.0 <= x < np.inf and -np.inf < z < np.inf and third_ok and third < np.inf
             and 0.0 <= w < np.inf and EA > 0.0)
+
+
+def at(a: NDArray | float, k: int) -> float:
+    """Entry ``k`` of a cable argument in compiled code: an array of one entry per cable,
+    an array of one entry for every cable, or a number for every cable (each compiles
+    to its own code)."""
+    raise NotImplementedError("at() is compiled code: call it from a kernel")
+
+
+@overload(at)
+def _at_typed(a, k):
+    # Unannotated: numba matches these parameters to those of the implementations.
+    if isinstance(a, types.Array):
+        def entry(a, k):
+            return a[k] if a.size > 1 else a[0]
+
+        return entry
+
+    def number(a, k):
+        return a
+
+    return number

@@ -54,6 +54,7 @@ from .compiled import (
     load_kernels,
     new_result,
     run_cables,
+    serial_entry,
     take,
 )
 from .length_bracket import bracket_length, end_tension
@@ -325,15 +326,24 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
     """:func:`solve_length` for ``end`` "B" or "A" through the compiled kernel, the
     cables it leaves by :func:`_solve_length_flat`; None where the numpy path must
     decide for the whole call (invalid data, shapes that do not broadcast, no cable)."""
-    flat = flat_arguments(x, z, tension, w, EA)
-    if flat is None:
-        return None
-    shape, n, (xf, zf, tf, wf, ef) = flat
     kernels = load_kernels()
-    out = np.empty((4, n))
-    ints = np.empty((2, n), dtype=np.int64)
-    unsettled = run_cables("solve_length_cables", n, end == "B", xf, zf, tf, wf, ef,
-                           float(rtol), int(max_iter), out, ints)
+    n = _cable_vectors(x, z, tension, w, EA)
+    if 0 < n < kernels.PARALLEL_FROM:
+        # The usual call of a controller (a robot's cables), passed on as it is.
+        shape, xf, zf, tf, wf, ef = x.shape, x, z, tension, w, EA  # type: ignore[union-attr]
+        out, ints = np.empty((4, n)), np.empty((2, n), dtype=np.int64)
+        args = (end == "B", xf, zf, tf, wf, ef, float(rtol), int(max_iter), out, ints)
+        unsettled = serial_entry("solve_length_cables", args, ":numbers")(*args)
+        if not unsettled:
+            return _all_converged(out, ints)
+    else:
+        flat = flat_arguments(x, z, tension, w, EA)
+        if flat is None:
+            return None
+        shape, n, (xf, zf, tf, wf, ef) = flat
+        out, ints = np.empty((4, n)), np.empty((2, n), dtype=np.int64)
+        unsettled = run_cables("solve_length_cables", n, end == "B", xf, zf, tf, wf, ef,
+                               float(rtol), int(max_iter), out, ints)
     if unsettled:
         codes = ints[0]
         if np.any(codes == kernels.INVALID):
@@ -358,3 +368,36 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
             a.reshape(shape) for a in (H, V_B, V_A, L0, its, converged, status))
     return new_result(LengthResult, H=H, V_A=V_A, V_B=V_B, iterations=its,
                       converged=converged, status=status, L0=L0)
+
+
+def _all_converged(out: FloatArray, ints: NDArray[np.int64]) -> LengthResult:
+    """The result of cables the kernel all settled, ``out`` (4, n) and ``ints`` (2, n)
+    as it wrote them, built field by field (:func:`new_result`, without the cost of
+    keyword arguments: as much as the kernel's work for a cable)."""
+    n = out.shape[1]
+    result = object.__new__(LengthResult)
+    fields = result.__dict__
+    fields["H"], fields["V_B"], fields["V_A"], fields["L0"] = out[0], out[1], out[2], out[3]
+    fields["iterations"], fields["converged"], fields["status"] = (
+        ints[1], all_true(n), all_converged(n))
+    return result
+
+
+_F64 = np.dtype(np.float64)
+_ARRAY = np.ndarray
+
+
+def _cable_vectors(x: ArrayLike, z: ArrayLike, tension: ArrayLike, w: ArrayLike,
+                   EA: ArrayLike) -> int:
+    """The number of cables where ``x``, ``z`` and ``tension`` are contiguous float64
+    vectors of one length and ``w`` and ``EA`` numbers (floats), the call the kernel
+    takes as it is; else 0."""
+    if not (type(x) is _ARRAY and type(z) is _ARRAY and type(tension) is _ARRAY
+            and isinstance(w, float) and isinstance(EA, float)):
+        return 0
+    if not (x.dtype is _F64 and z.dtype is _F64 and tension.dtype is _F64  # type: ignore[union-attr]
+            and x.ndim == 1 and x.shape == z.shape == tension.shape  # type: ignore[union-attr]
+            and x.flags.c_contiguous and z.flags.c_contiguous  # type: ignore[union-attr]
+            and tension.flags.c_contiguous):  # type: ignore[union-attr]
+        return 0
+    return x.shape[0]  # type: ignore[union-attr]

@@ -124,6 +124,25 @@ def test_interleaved_cables_match_each_cable_alone(end):
     np.testing.assert_array_equal(parallel_out, out)
 
 
+@pytest.mark.parametrize("end", ["B", "A"])
+def test_vectors_with_numbers_match_the_general_call(end):
+    """Float64 vectors with ``w`` and ``EA`` numbers (a controller's call) go to the
+    kernel as they are; the result is field for field that of the same data given as
+    arrays (the general path), cables the kernel leaves included."""
+    x, z, T, _, _ = random_cables(11, 300)
+    seen: set[str] = set()
+    for w, EA in ((1.0, np.inf), (20.0, 1e5), (np.float64(0.3), 1e8), (0.0, np.inf)):
+        got = catenary.solve_length(x, z, T, w, EA, end=end)
+        ref = catenary.solve_length(x, z, T, np.full(x.size, w), np.full(x.size, EA),
+                                    end=end)
+        for name in ("H", "V_A", "V_B", "L0", "iterations", "converged", "status"):
+            np.testing.assert_array_equal(getattr(got, name), getattr(ref, name))
+        seen.update(got.status.tolist())
+        strided = catenary.solve_length(x[::2], z[::2], T[::2], w, EA, end=end)
+        np.testing.assert_array_equal(strided.L0, ref.L0[::2])
+    assert {"converged", "infeasible"} <= seen
+
+
 def forces_scale(ref, chord, L0):
     """Bound on the forces' disagreement (N): 1e-12 of the tension at B, more for cables
     nearly as long as their chord, whose forces are ill-conditioned: a relative change
