@@ -36,11 +36,11 @@ from tension_opt.kernels.lowdim import (
 from tension_opt.kernels.nullspace import null_space, null_space_work
 from tension_opt.solution import FEASIBILITY_TOL
 
-__all__ = ["CODE_BAD_INPUT", "CODE_FALLBACK", "CODE_STATUS", "HEADER", "HUGE", "form_terms",
-           "judge", "pack", "pack_problem", "point4", "pose_scales", "solve_batch",
-           "solve_batch_serial", "solve_form", "solve_forms", "solve_forms_sequence",
-           "solve_forms_serial", "solve_one",
-           "solve_sequence", "work_size"]
+__all__ = ["CODE_BAD_INPUT", "CODE_FALLBACK", "CODE_STATUS", "HEADER", "HUGE", "form_pose",
+           "form_terms", "judge", "pack", "pack_problem", "plain", "point4", "pose_scales",
+           "solve_batch", "solve_batch_serial", "solve_form", "solve_forms",
+           "solve_forms_sequence", "solve_forms_serial", "solve_one", "solve_sequence",
+           "work_size"]
 
 #: Status codes of the kernels and the :class:`~tension_opt.solution.Status` values
 #: they stand for; :data:`CODE_FALLBACK` asks for the numpy path (singular or badly
@@ -378,9 +378,9 @@ def solve_sequence(data: NDArray, poses: NDArray, wrenches: NDArray, last: NDArr
 HUGE = 1e150
 
 
-@njit(cache=True, error_model="numpy")
-def _plain(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray
-           ) -> bool:
+@njit(cache=True, error_model="numpy", inline="always")
+def plain(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray
+          ) -> bool:
     """Whether a pose's data are all of magnitude below :data:`HUGE` (bounds may be
     infinite) and not NaN."""
     for i in range(A.shape[0]):
@@ -476,9 +476,9 @@ def point4(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _form_pose(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
-               v: NDArray, minmax: bool, quadratic: bool, tol_factor: float, T: NDArray,
-               work: NDArray) -> tuple[int, bool, float]:
+def form_pose(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
+              v: NDArray, minmax: bool, quadratic: bool, tol_factor: float, T: NDArray,
+              work: NDArray) -> tuple[int, bool, float]:
     """One pose's form as :func:`solve_forms` solves it (data within :data:`HUGE`):
     the four-cable shortcut first, as the numpy path, then :func:`solve_form`; returns
     ``(code, unique, infeasibility)``."""
@@ -504,9 +504,9 @@ def _forms_chunk(j: int, A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: ND
         for i in range(m):
             own = own or q[k, i] != 0.0
         code, unique, infeas = CODE_FALLBACK, True, np.nan
-        if own == quadratic and _plain(A[k], b[k], lb[k], ub[k], q[k], c[k]):
-            code, unique, infeas = _form_pose(A[k], b[k], lb[k], ub[k], q[k], c[k], vk,
-                                              minmax, quadratic, tol_factor, T[k], work)
+        if own == quadratic and plain(A[k], b[k], lb[k], ub[k], q[k], c[k]):
+            code, unique, infeas = form_pose(A[k], b[k], lb[k], ub[k], q[k], c[k], vk,
+                                             minmax, quadratic, tol_factor, T[k], work)
         codes[k] = code
         info[k, 0], info[k, 1] = 1.0 if unique else 0.0, infeas
 
@@ -577,13 +577,13 @@ def solve_forms_sequence(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0:
     for k in range(start, N):
         form_terms(q0[k], c0[k], lb0[k], ub0[k], smoothing, rate, last, has_last, q, c, lb,
                    ub)
-        if not _plain(A[k], b[k], lb, ub, q, c):
+        if not plain(A[k], b[k], lb, ub, q, c):
             return k
         quadratic = False
         for i in range(m):
             quadratic = quadratic or q[i] != 0.0
-        code, unique, infeas = _form_pose(A[k], b[k], lb, ub, q, c, v, False, quadratic,
-                                          tol_factor, T[k], rest)
+        code, unique, infeas = form_pose(A[k], b[k], lb, ub, q, c, v, False, quadratic,
+                                         tol_factor, T[k], rest)
         if code >= 4:
             return k
         codes[k] = code

@@ -25,6 +25,7 @@ __all__ = [
     "GEOMETRY_OK",
     "GEOMETRY_OVERFLOW",
     "KIND_CODES",
+    "compiled_kind",
     "geometry_batch",
     "geometry_into",
     "geometry_serial",
@@ -193,6 +194,16 @@ def geometry_serial(kind: int, anchors: NDArray, attachments: NDArray, com: NDAr
                                  poses[k], w, A[k], b[k])
 
 
+def compiled_kind(robot: Any) -> int:
+    """The kernels' code of a robot's kind (:data:`KIND_CODES`), or -1 where the
+    kernels do not know it (another kind, or a pattern of its own under a known
+    name)."""
+    code = KIND_CODES.get(robot.kind, -1)
+    if code < 0 or type(robot.pattern) is not type(KINDS[robot.kind]):
+        return -1
+    return code
+
+
 def robot_geometry(robot: Any, poses: NDArray, wrench: ArrayLike | None
                    ) -> tuple[NDArray, NDArray] | None:
     """Structure matrices (N, n, m) and required wrenches (N, n) of a robot's validated
@@ -212,8 +223,8 @@ def robot_geometry(robot: Any, poses: NDArray, wrench: ArrayLike | None
     wrench : array_like, shape (n,) or (N, n), optional
         External wrench besides gravity (N, N m).
     """
-    code = KIND_CODES.get(robot.kind, -1)
-    if code < 0 or type(robot.pattern) is not type(KINDS[robot.kind]):
+    code = compiled_kind(robot)
+    if code < 0:
         return None
     N, n = poses.shape
     if wrench is None:

@@ -18,7 +18,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["batch_estimate", "solve_small"]
+__all__ = ["batch_estimate", "pose_estimate", "solve_small"]
 
 #: Largest finite double (``np.nan_to_num``'s stand-in for an infinite multiplier).
 _HUGE = np.finfo(np.float64).max
@@ -54,14 +54,76 @@ def solve_small(H: NDArray, u: NDArray) -> bool:
     return True
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def pose_estimate(P: NDArray, c: NDArray, Aeq: NDArray, G: NDArray, h: NDArray,
+                  lb: NDArray, ub: NDArray, x: NDArray, ridge: float, y: NDArray,
+                  mu: NDArray, z: NDArray, B: NDArray, H: NDArray, u: NDArray,
+                  grad: NDArray, shrink: NDArray) -> bool:
+    """Multipliers ``y`` (n,), ``mu`` (g,), ``z`` (k,) of one solved scaled pose (the
+    arrays of :func:`batch_estimate` at one pose), written; its normal equations built
+    and solved in place in the work arrays ``B`` (k, n + g), ``H`` (n + g, n + g),
+    ``u`` (n + g,), ``grad`` and ``shrink`` (k,). False (and NaN multipliers) where
+    the system is singular."""
+    n, k = Aeq.shape
+    g = G.shape[0]
+    r = n + g
+    for i in range(k):
+        grad[i] = P[i] * x[i] + c[i]
+        near = min(abs(x[i] - lb[i]), abs(ub[i] - x[i]))
+        shrink[i] = 1.0 / (1.0 + near * near)  # 0 where there is no bound
+        for j in range(n):
+            B[i, j] = Aeq[j, i]
+        for j in range(g):
+            B[i, n + j] = G[j, i]
+    top = 0.0
+    for a in range(r):
+        total = 0.0
+        for i in range(k):
+            total -= B[i, a] * (1.0 - shrink[i]) * grad[i]
+        u[a] = total
+        for b in range(a, r):
+            total = 0.0
+            for i in range(k):
+                total += B[i, a] * (1.0 - shrink[i]) * B[i, b]
+            H[a, b] = H[b, a] = total
+        top = max(top, abs(H[a, a]))
+    top = max(top, 1.0)
+    for a in range(r):
+        extra = 0.0
+        if a >= n:
+            slack = 0.0
+            for i in range(k):
+                slack += G[a - n, i] * x[i]
+            slack = min(abs(h[a - n] - slack), 1e6)
+            extra = slack * slack
+        H[a, a] += extra + ridge * top
+    if not solve_small(H, u):
+        y[:], mu[:], z[:] = np.nan, np.nan, np.nan
+        return False
+    for j in range(n):
+        y[j] = u[j]
+    for j in range(g):
+        mu[j] = u[n + j]
+    for i in range(k):
+        total = grad[i]
+        for a in range(r):
+            total += B[i, a] * u[a]
+        zi = -total * shrink[i]
+        if math.isnan(zi):
+            zi = 0.0
+        elif math.isinf(zi):
+            zi = _HUGE if zi > 0 else -_HUGE
+        z[i] = zi
+    return True
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def batch_estimate(P: NDArray, c: NDArray, Aeq: NDArray, G: NDArray, h: NDArray,
                    lb: NDArray, ub: NDArray, x: NDArray, ridge: float
                    ) -> tuple[NDArray, NDArray, NDArray]:
-    """Multipliers ``y`` (N, n), ``mu`` (N, g), ``z`` (N, k) of solved scaled poses.
-
-    A hot numerical kernel: each pose's normal equations are built and solved in one
-    pass, without the (N, k, n + g) temporaries of the numpy reference.
+    """Multipliers ``y`` (N, n), ``mu`` (N, g), ``z`` (N, k) of solved scaled poses
+    (:func:`pose_estimate` per pose, without the (N, k, n + g) temporaries of the
+    numpy reference).
 
     Parameters
     ----------
@@ -90,51 +152,6 @@ def batch_estimate(P: NDArray, c: NDArray, Aeq: NDArray, G: NDArray, h: NDArray,
     grad = np.empty(k)
     shrink = np.empty(k)
     for p in range(N):
-        for i in range(k):
-            grad[i] = P[p, i] * x[p, i] + c[p, i]
-            near = min(abs(x[p, i] - lb[p, i]), abs(ub[p, i] - x[p, i]))
-            shrink[i] = 1.0 / (1.0 + near * near)  # 0 where there is no bound
-            for j in range(n):
-                B[i, j] = Aeq[p, j, i]
-            for j in range(g):
-                B[i, n + j] = G[p, j, i]
-        top = 0.0
-        for a in range(r):
-            total = 0.0
-            for i in range(k):
-                total -= B[i, a] * (1.0 - shrink[i]) * grad[i]
-            u[a] = total
-            for b in range(a, r):
-                total = 0.0
-                for i in range(k):
-                    total += B[i, a] * (1.0 - shrink[i]) * B[i, b]
-                H[a, b] = H[b, a] = total
-            top = max(top, abs(H[a, a]))
-        top = max(top, 1.0)
-        for a in range(r):
-            extra = 0.0
-            if a >= n:
-                slack = 0.0
-                for i in range(k):
-                    slack += G[p, a - n, i] * x[p, i]
-                slack = min(abs(h[p, a - n] - slack), 1e6)
-                extra = slack * slack
-            H[a, a] += extra + ridge * top
-        if not solve_small(H, u):
-            y[p, :], mu[p, :], z[p, :] = np.nan, np.nan, np.nan
-            continue
-        for j in range(n):
-            y[p, j] = u[j]
-        for j in range(g):
-            mu[p, j] = u[n + j]
-        for i in range(k):
-            total = grad[i]
-            for a in range(r):
-                total += B[i, a] * u[a]
-            zi = -total * shrink[i]
-            if math.isnan(zi):
-                zi = 0.0
-            elif math.isinf(zi):
-                zi = _HUGE if zi > 0 else -_HUGE
-            z[p, i] = zi
+        pose_estimate(P[p], c[p], Aeq[p], G[p], h[p], lb[p], ub[p], x[p], ridge, y[p], mu[p],
+                      z[p], B, H, u, grad, shrink)
     return y, mu, z

@@ -9,7 +9,9 @@ stand-in where the reference tension overflows, the row floor and the upper-boun
 share), so both agree to rounding.
 
 :func:`pose_scaling` is one pose (also used by the real-time DAQP path,
-:mod:`tension_opt.kernels.dense_qp`); :func:`batch_scaling` runs it over a batch.
+:mod:`tension_opt.kernels.dense_qp`); :func:`batch_scaling` runs it over a batch;
+:func:`pose_scaled` writes one pose's whole scaled problem (the certified closed form,
+:mod:`tension_opt.kernels.certified`).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["batch_scaling", "pose_scaling", "safe_norm_of"]
+__all__ = ["batch_scaling", "pose_scaled", "pose_scaling", "safe_norm_of"]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -106,6 +108,62 @@ def pose_scaling(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c
     if quadratic > 0.0:
         return s, quadratic, True
     return s, linear if linear > 0.0 else 1.0, False
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def pose_scaled(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
+                v: NDArray, vmax: float, ub_share: float, row_floor: float, rows: NDArray,
+                P: NDArray, cs: NDArray, Aeq: NDArray, beq: NDArray, G: NDArray, h: NDArray,
+                lbs: NDArray, ubs: NDArray) -> float:
+    """The scaled, lifted problem of one pose, as :func:`tension_opt.scaled.scaled_batch`
+    writes it (its numpy reference), from the pose's form (``A`` (n, m), ``b`` (n,),
+    ``lb``, ``ub``, ``q``, ``c`` (m,)).
+
+    Parameters
+    ----------
+    v : ndarray, shape (m,)
+        Min-max weights (read only with a min-max term).
+    vmax : float
+        Largest min-max weight, 0 without a min-max term (:func:`pose_scaling`).
+    ub_share, row_floor : float
+        As :func:`pose_scaling`.
+    rows : ndarray, shape (n,)
+        Written: the factors of the equilibrium rows.
+    P, cs, lbs, ubs : ndarray, shape (k,)
+    Aeq : ndarray, shape (n, k)
+    beq : ndarray, shape (n,)
+    G : ndarray, shape (g, k)
+    h : ndarray, shape (g,)
+        Written: the scaled problem, ``k = m + 1`` and ``g = m`` with a min-max term
+        (its epigraph variable and rows), else ``k = m`` and ``g = 0``.
+
+    Returns
+    -------
+    float
+        The reference tension ``s`` (N): ``T = s x``.
+    """
+    n, m = A.shape
+    s, top, quadratic = pose_scaling(A, b, lb, ub, q, c, vmax, ub_share, row_floor, rows)
+    per_s = s if quadratic else 1.0  # a QP's linear term also shrinks by s
+    for i in range(m):
+        P[i] = q[i] / top
+        cs[i] = c[i] / top / per_s
+        lbs[i] = lb[i] / s
+        ubs[i] = ub[i] / s
+    for r in range(n):
+        for i in range(m):
+            Aeq[r, i] = A[r, i] * rows[r]
+        beq[r] = b[r] * rows[r] / s
+    if P.shape[0] > m:  # the epigraph variable t >= (v_i / vmax) x_i of a min-max term
+        unit = vmax if vmax > 0.0 else 1.0
+        P[m], cs[m], lbs[m], ubs[m] = 0.0, unit / top / per_s, -np.inf, np.inf
+        for r in range(n):
+            Aeq[r, m] = 0.0
+        for r in range(m):
+            for i in range(m):
+                G[r, i] = 0.0
+            G[r, r], G[r, m], h[r] = v[r] / unit, -1.0, 0.0
+    return s
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
