@@ -11,7 +11,7 @@ objective, equilibrium residual, bound violation, the certificate on
 :func:`tension_opt.scaled.scaled_batch` with multipliers from the cheap dual solve, and
 the status judged by both). Each step is the one-pose function the batch kernels of
 that step run (:func:`~tension_opt.kernels.geometry.geometry_into`,
-:func:`~tension_opt.kernels.closed_form.form_pose`,
+:func:`~tension_opt.kernels.closed_form.form_pose` (its steps),
 :func:`~tension_opt.kernels.scaling.pose_scaled`,
 :func:`~tension_opt.kernels.multipliers.pose_estimate`,
 :func:`~tension_opt.kernels.measures.pose_measures`), so the answers agree to rounding.
@@ -36,10 +36,12 @@ from tension_opt.certificate import RIDGE
 from tension_opt.kernels.closed_form import (
     CODE_FALLBACK,
     HEADER,
-    form_pose,
     pack_problem,
     plain,
+    point4,
+    point4_distance,
     pose_scales,
+    solve_form,
     work_size,
 )
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
@@ -124,6 +126,8 @@ def _measured(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, T: NDArray, code
         else:
             d = T[i] - r[i]
             value += d * d * w[i]
+    if (A.size | b.size | lb.size | ub.size | T.size | w.size | r.size | work.size) < 0:
+        value = np.nan  # never: the arrays read once more (see tension_opt.kernels.scaling)
     return residual, violation, value
 
 
@@ -133,16 +137,16 @@ def _lifted(T: NDArray, s: float, G: NDArray, x: NDArray) -> bool:
     variable of a min-max term the smallest that holds, its weights the diagonal of
     ``G``); False where they are not finite."""
     m = T.size
+    finite = True
     for i in range(m):
         x[i] = T[i] / s
-        if not math.isfinite(x[i]):
-            return False
+        finite = finite and math.isfinite(x[i])
     if x.size > m:
         top = -np.inf
         for i in range(m):
             top = max(top, x[i] * G[i, i])
         x[m] = top
-    return True
+    return finite
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -182,9 +186,8 @@ def certified_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray
                     ) -> int:
     """Geometry, closed form, diagnostics and certificate of independent poses.
 
-    A hot numerical kernel: the steps of a pose run in one pass on work arrays
-    allocated once per call, so that nothing per pose leaves the caches but its
-    results.
+    The steps of each pose run in one pass (:func:`_poses`) on work arrays allocated
+    once per call, so that nothing per pose leaves the caches but its results.
 
     Parameters
     ----------
@@ -210,31 +213,54 @@ def certified_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray
     int
         Poses left to the caller.
     """
-    kind, m, n = int(data[0]), int(data[1]), int(data[2])
-    anchors = data[HEADER:HEADER + 3 * m].reshape((m, 3))
-    attachments = data[HEADER + 3 * m:HEADER + 6 * m].reshape((m, 3))
-    com = data[8:HEADER]
+    m, n = int(data[1]), int(data[2])
+    k, g = z.shape[1], mu.shape[1]
+    # Work arrays, made once and handed to the loop as arguments (the loop then takes no
+    # new reference to any array: see tension_opt.kernels.scaling).
+    work = (np.empty(n), np.empty(n), np.empty((n, m)), np.empty(n), np.empty(n),
+            np.empty(m), np.empty(work_size(m, n)), np.empty(n), np.empty(k), np.empty(k),
+            np.empty((n, k)), np.empty(n), np.empty((g, k)), np.empty(g), np.empty(k),
+            np.empty(k), np.empty(k), np.empty(n), np.empty(g), np.empty(k),
+            np.empty((k, n + g)), np.empty((n + g, n + g)), np.empty(n + g), np.empty(k),
+            np.empty(k), np.empty(k))
     terms = data[HEADER + 6 * m:HEADER + 12 * m].reshape((6, m))
-    q, c, v, lb, ub = terms[0], terms[1], terms[2], terms[3], terms[4]
+    o = HEADER + 12 * m
+    views = (data[HEADER:HEADER + 3 * m].reshape((m, 3)),
+             data[HEADER + 3 * m:HEADER + 6 * m].reshape((m, 3)), data[8:HEADER], terms[0],
+             terms[1], terms[2], terms[3], terms[4], data[o + 3:o + 3 + m],
+             data[o + 3 + m:o + 3 + 2 * m])
+    return _poses(data, views, poses, wrenches, (T, y, mu, z), (codes, unique), (
+        objective, residual, violation, infeasibility, primal, dual, gap), work)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _poses(data: NDArray, views: tuple[NDArray, ...], poses: NDArray, wrenches: NDArray,
+           rows_out: tuple[NDArray, NDArray, NDArray, NDArray],
+           flags_out: tuple[NDArray, NDArray],
+           measured: tuple[NDArray, NDArray, NDArray, NDArray, NDArray, NDArray, NDArray],
+           work: tuple[NDArray, ...]) -> int:
+    """The loop of :func:`certified_poses` over its poses: ``views`` of ``data``
+    (anchors, attachments, centre of mass, ``q, c, v, lb, ub``, the objective's ``w``
+    and ``r``) and the work arrays come as arguments (numba's references to arrays made
+    here would be counted at every inlined step that reads them).
+
+    A hot numerical kernel: each pose's steps in one pass, on work arrays allocated
+    once, writing only its results.
+    """
+    T, y, mu, z = rows_out
+    codes, unique = flags_out
+    objective, residual, violation, infeasibility, primal, dual, gap = measured
+    pose, wrench, A, b, e, Tw, rest, rows, P, cs, Aeq, beq, G, h, lbs, ubs, x, yw, muw, \
+        zw, B, H, u, grad, shrink, station = work
+    anchors, attachments, com, q, c, v, lb, ub, w, r = views
+    kind, m, n = int(data[0]), int(data[1]), int(data[2])
     o = HEADER + 12 * m
     target, code, vmax = data[o], int(data[o + 1]), data[o + 2]
-    w, r = data[o + 3:o + 3 + m], data[o + 3 + m:o + 3 + 2 * m]
     minmax, tol_factor = data[7] != 0.0, data[6]
     quadratic = False
     for i in range(m):
         quadratic = quadratic or q[i] != 0.0
-    k, g = z.shape[1], mu.shape[1]
-    # Work arrays, made once: the loop takes no view of a batch array (a view that
-    # lives across the loop's branches costs two atomic reference counts per pose).
-    pose, wrench, A, b, e = np.empty(n), np.empty(n), np.empty((n, m)), np.empty(n), \
-        np.empty(n)
-    Tw, rest = np.empty(m), np.empty(work_size(m, n))
-    rows, P, cs, Aeq, beq = np.empty(n), np.empty(k), np.empty(k), np.empty((n, k)), \
-        np.empty(n)
-    G, h, lbs, ubs, x = np.empty((g, k)), np.empty(g), np.empty(k), np.empty(k), np.empty(k)
-    yw, muw, zw = np.empty(n), np.empty(g), np.empty(k)
-    B, H, u = np.empty((k, n + g)), np.empty((n + g, n + g)), np.empty(n + g)
-    grad, shrink, station = np.empty(k), np.empty(k), np.empty(k)
+    four = n == 3 and m == 4 and not minmax  # form_pose's shortcut
     for i in range(n):
         wrench[i] = wrenches[0, i]
     left = 0
@@ -247,10 +273,19 @@ def certified_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray
                          A, b) != GEOMETRY_OK:
             codes[p], left = CODE_GEOMETRY, left + 1
             continue
-        status, once, infeas = CODE_FALLBACK, True, np.nan
-        if plain(A, b, lb, ub, q, c):
-            status, once, infeas = form_pose(A, b, lb, ub, q, c, v, minmax, quadratic,
-                                             FEASIBILITY_TOL, Tw, rest)
+        # form_pose, its calls made here, out of the inlined steps (a call inside one
+        # keeps the reference counts of its arrays: see tension_opt.kernels.scaling).
+        status, once, infeas, settled, off = CODE_FALLBACK, True, np.nan, False, False
+        ok = plain(A, b, lb, ub, q, c)
+        if ok and four:
+            settled, once, off = point4(A, b, lb, ub, q, c, quadratic, Tw, rest)
+        if off:
+            infeas = point4_distance(lb, ub, rest)
+        if settled:
+            status = 0 if math.isnan(infeas) else 1
+        elif ok:
+            status, once, _, infeas = solve_form(A, b, lb, ub, q, c, v, minmax,
+                                                 FEASIBILITY_TOL, Tw, rest)
         solved = status == 0 or status == 3
         for i in range(m):  # a "solution" that is not finite goes to the caller
             if solved and not math.isfinite(Tw[i]):

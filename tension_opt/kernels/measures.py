@@ -38,9 +38,9 @@ def pose_measures(P: NDArray, c: NDArray, Aeq: NDArray, beq: NDArray, G: NDArray
     is not finite."""
     n, k = Aeq.shape
     g = G.shape[0]
+    solved = True
     for i in range(k):
-        if not math.isfinite(x[i]):
-            return np.nan, np.nan, np.nan
+        solved = solved and math.isfinite(x[i])
     worst = 0.0
     gap = 0.0
     objective = 0.0
@@ -87,7 +87,11 @@ def pose_measures(P: NDArray, c: NDArray, Aeq: NDArray, beq: NDArray, G: NDArray
     stationarity = 0.0
     for i in range(k):
         stationarity = _worst(stationarity, abs(station[i]))
-    return worst, stationarity, abs(gap) / _worst(1.0, abs(objective))
+    relative = abs(gap) / _worst(1.0, abs(objective))
+    if not solved:
+        worst = stationarity = relative = np.nan
+    # One return (see tension_opt.kernels.scaling): the arrays' reference counts pruned.
+    return worst, stationarity, relative
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

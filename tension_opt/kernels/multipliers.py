@@ -29,13 +29,15 @@ def solve_small(H: NDArray, u: NDArray) -> bool:
     """Solve ``H v = u`` in place (``u`` becomes ``v``; ``H`` is overwritten) by
     Gaussian elimination with partial pivoting; False for a zero pivot."""
     r = H.shape[0]
+    ok = True
     for col in range(r):
         pivot = col
         for row in range(col + 1, r):
             if abs(H[row, col]) > abs(H[pivot, col]):
                 pivot = row
         if H[pivot, col] == 0.0 or not math.isfinite(H[pivot, col]):
-            return False
+            ok = False
+            break
         if pivot != col:
             for j in range(r):
                 H[col, j], H[pivot, j] = H[pivot, j], H[col, j]
@@ -46,12 +48,13 @@ def solve_small(H: NDArray, u: NDArray) -> bool:
                 for j in range(col, r):
                     H[row, j] -= factor * H[col, j]
                 u[row] -= factor * u[col]
-    for col in range(r - 1, -1, -1):
+    for col in range(r - 1 if ok else -1, -1, -1):
         total = u[col]
         for j in range(col + 1, r):
             total -= H[col, j] * u[j]
         u[col] = total / H[col, col]
-    return True
+    # One return (see tension_opt.kernels.scaling): the arrays' reference counts pruned.
+    return ok
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -75,17 +78,23 @@ def pose_estimate(P: NDArray, c: NDArray, Aeq: NDArray, G: NDArray, h: NDArray,
             B[i, j] = Aeq[j, i]
         for j in range(g):
             B[i, n + j] = G[j, i]
+    # The normal equations, each entry summed over i in order; i outermost, so that the
+    # entries' sums run side by side.
+    for a in range(r):
+        u[a] = 0.0
+        for b in range(a, r):
+            H[a, b] = 0.0
+    for i in range(k):
+        weight = 1.0 - shrink[i]
+        for a in range(r):
+            Bw = B[i, a] * weight
+            u[a] -= Bw * grad[i]
+            for b in range(a, r):
+                H[a, b] += Bw * B[i, b]
     top = 0.0
     for a in range(r):
-        total = 0.0
-        for i in range(k):
-            total -= B[i, a] * (1.0 - shrink[i]) * grad[i]
-        u[a] = total
-        for b in range(a, r):
-            total = 0.0
-            for i in range(k):
-                total += B[i, a] * (1.0 - shrink[i]) * B[i, b]
-            H[a, b] = H[b, a] = total
+        for b in range(a + 1, r):
+            H[b, a] = H[a, b]
         top = max(top, abs(H[a, a]))
     top = max(top, 1.0)
     for a in range(r):
@@ -97,13 +106,11 @@ def pose_estimate(P: NDArray, c: NDArray, Aeq: NDArray, G: NDArray, h: NDArray,
             slack = min(abs(h[a - n] - slack), 1e6)
             extra = slack * slack
         H[a, a] += extra + ridge * top
-    if not solve_small(H, u):
-        y[:], mu[:], z[:] = np.nan, np.nan, np.nan
-        return False
+    ok = solve_small(H, u)
     for j in range(n):
-        y[j] = u[j]
+        y[j] = u[j] if ok else np.nan
     for j in range(g):
-        mu[j] = u[n + j]
+        mu[j] = u[n + j] if ok else np.nan
     for i in range(k):
         total = grad[i]
         for a in range(r):
@@ -113,8 +120,8 @@ def pose_estimate(P: NDArray, c: NDArray, Aeq: NDArray, G: NDArray, h: NDArray,
             zi = 0.0
         elif math.isinf(zi):
             zi = _HUGE if zi > 0 else -_HUGE
-        z[i] = zi
-    return True
+        z[i] = zi if ok else np.nan
+    return ok
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
