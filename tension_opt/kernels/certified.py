@@ -263,7 +263,7 @@ def _poses(data: NDArray, views: tuple[NDArray, ...], poses: NDArray, wrenches: 
     four = n == 3 and m == 4 and not minmax  # form_pose's shortcut
     for i in range(n):
         wrench[i] = wrenches[0, i]
-    left = 0
+    left, again = 0, False
     for p in range(poses.shape[0]):
         for i in range(n):
             pose[i] = poses[p, i]
@@ -304,7 +304,8 @@ def _poses(data: NDArray, views: tuple[NDArray, ...], poses: NDArray, wrenches: 
         # The certificate (certify_form): the pose's scaled problem, its multipliers by
         # the cheap dual solve, the three measures.
         s = pose_scaled(A, b, lb, ub, q, c, v, vmax, UB_SHARE, ROW_FLOOR, rows, P, cs, Aeq,
-                        beq, G, h, lbs, ubs)
+                        beq, G, h, lbs, ubs, again)
+        again = True  # every pose has the same terms
         if not _lifted(Tw, s, G, x):  # scaled tensions beyond the float range
             codes[p], left = CODE_FALLBACK, left + 1
             continue

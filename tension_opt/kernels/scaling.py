@@ -125,7 +125,7 @@ def pose_scaling(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c
 def pose_scaled(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
                 v: NDArray, vmax: float, ub_share: float, row_floor: float, rows: NDArray,
                 P: NDArray, cs: NDArray, Aeq: NDArray, beq: NDArray, G: NDArray, h: NDArray,
-                lbs: NDArray, ubs: NDArray) -> float:
+                lbs: NDArray, ubs: NDArray, again: bool) -> float:
     """The scaled, lifted problem of one pose, as :func:`tension_opt.scaled.scaled_batch`
     writes it (its numpy reference), from the pose's form (``A`` (n, m), ``b`` (n,),
     ``lb``, ``ub``, ``q``, ``c`` (m,)).
@@ -147,6 +147,10 @@ def pose_scaled(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c:
     h : ndarray, shape (g,)
         Written: the scaled problem, ``k = m + 1`` and ``g = m`` with a min-max term
         (its epigraph variable and rows), else ``k = m`` and ``g = 0``.
+    again : bool
+        Whether these arrays hold the scaled problem of another pose with the same
+        ``q``, ``c``, ``v`` and bounds: what does not depend on the pose (``P``, a
+        linear ``cs``, the epigraph's rows and bounds) is then left as it is.
 
     Returns
     -------
@@ -156,23 +160,27 @@ def pose_scaled(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c:
     n, m = A.shape
     s, top, quadratic = pose_scaling(A, b, lb, ub, q, c, vmax, ub_share, row_floor, rows)
     per_s = s if quadratic else 1.0  # a QP's linear term also shrinks by s
+    # (Loops that run only where needed, rather than branches: see the module docstring.)
     for i in range(m):
-        P[i] = q[i] / top
-        cs[i] = c[i] / top / per_s
         lbs[i] = lb[i] / s
         ubs[i] = ub[i] / s
+    for i in range(0 if again else m):
+        P[i] = q[i] / top
+    for i in range(0 if again and not quadratic else m):
+        cs[i] = c[i] / top / per_s
     for r in range(n):
         for i in range(m):
             Aeq[r, i] = A[r, i] * rows[r]
         beq[r] = b[r] * rows[r] / s
-    # The epigraph variable t >= (v_i / vmax) x_i of a min-max term and its m rows (loops
-    # that run only with one, rather than a branch: see the module docstring).
+    # The epigraph variable t >= (v_i / vmax) x_i of a min-max term and its m rows.
     unit = vmax if vmax > 0.0 else 1.0
     for j in range(m, P.shape[0]):
-        P[j], cs[j], lbs[j], ubs[j] = 0.0, unit / top / per_s, -np.inf, np.inf
+        cs[j] = unit / top / per_s
+    for j in range(P.shape[0] if again else m, P.shape[0]):
+        P[j], lbs[j], ubs[j] = 0.0, -np.inf, np.inf
         for r in range(n):
             Aeq[r, j] = 0.0
-    for r in range(G.shape[0]):
+    for r in range(0 if again else G.shape[0]):
         for i in range(m):
             G[r, i] = 0.0
         G[r, r], G[r, m], h[r] = v[r] / unit, -1.0, 0.0
