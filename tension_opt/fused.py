@@ -145,10 +145,11 @@ class CertifiedBatch:
         self.unique[index] = sol.unique
         for name, values in self.measures.items():
             values[index] = getattr(sol, name)
+        iterations = self.iterations  # read once: another chunk's thread may drop it
         if sol.iterations is None:
             self.iterations = None
-        elif self.iterations is not None:
-            self.iterations[index] = sol.iterations
+        elif iterations is not None:
+            iterations[index] = sol.iterations
         assert sol.multipliers is not None  # from_form always certifies
         self.multipliers.put(index, sol.multipliers)  # type: ignore[arg-type]
 
