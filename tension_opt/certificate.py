@@ -47,6 +47,7 @@ __all__ = [
     "ACCURACY_TARGETS",
     "DEFAULT_TARGET",
     "HIGH_TARGET",
+    "RIDGE",
     "Certificate",
     "Multipliers",
     "accuracy_target",
@@ -69,7 +70,7 @@ ACCURACY_TARGETS: dict[str, float] = {"default": DEFAULT_TARGET, "high": HIGH_TA
 _LOOSEST, _TIGHTEST = 1e-2, 1e-14
 #: Ridge of the dual fit, relative to its largest diagonal entry (a rank-deficient
 #: structure matrix leaves some equation multipliers free).
-_RIDGE = 1e-13
+RIDGE = 1e-13
 
 
 def accuracy_target(accuracy: object) -> float:
@@ -251,7 +252,7 @@ def estimate_multipliers(batch: ScaledBatch, x: NDArray) -> Multipliers:
     if sub is not None:
         arrays = [frozen(a) for a in (sub.P, sub.c, sub.Aeq, sub.G, sub.h, sub.lb, sub.ub,
                                       x[idx])]
-        out.put(idx, Multipliers(*batch_estimate(*arrays, _RIDGE)))
+        out.put(idx, Multipliers(*batch_estimate(*arrays, RIDGE)))
     return out
 
 
@@ -297,7 +298,7 @@ def estimate_multipliers_reference(batch: ScaledBatch, x: NDArray) -> Multiplier
     diagonal = np.diagonal(H, axis1=1, axis2=2)
     top = np.maximum(np.abs(diagonal).max(axis=1), 1.0)
     extra = np.concatenate([np.zeros((len(xs), n)), np.minimum(slack, 1e6) ** 2], axis=1)
-    H[:, np.arange(n + g), np.arange(n + g)] = diagonal + extra + _RIDGE * top[:, None]
+    H[:, np.arange(n + g), np.arange(n + g)] = diagonal + extra + RIDGE * top[:, None]
     u = np.linalg.solve(H, -(Bt_omega @ grad[..., None]))[..., 0]
     z = -(grad + _apply(B, u)) * shrink
     out.put(idx, Multipliers(u[:, :n], u[:, n:], np.nan_to_num(z, nan=0.0)))

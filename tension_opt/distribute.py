@@ -24,6 +24,7 @@ from tension_opt.backends.registry import (
 from tension_opt.backends.settings import check_options
 from tension_opt.checks import as_finite, as_float_array
 from tension_opt.errors import InvalidInputError
+from tension_opt.fused import CertifiedBatch, certified_plan
 from tension_opt.problems import Objective, StandardForm, TensionProblem, as_problem
 from tension_opt.robot import CableRobot
 from tension_opt.solution import FEASIBILITY_TOL, Status, TensionSolution, status_array
@@ -151,20 +152,27 @@ def _distribute_chunks(robot: CableRobot, p: NDArray, problem: TensionProblem,
                            else None, N, m)
     per_pose = {name: cut for name in ("t_min", "t_max", "reference")
                 if (cut := _pose_rows(name, getattr(problem, name), N, m)) is not None}
-    joined = _Joined(N)
     count = -(-N // size)  # chunks of equal length (to one pose), none of a few poses
     slices = [slice(k * N // count, (k + 1) * N // count) for k in range(count)]
 
-    def solve(sl: slice, last: NDArray | None) -> tuple[TensionSolution, NDArray | None]:
-        part = problem.with_(**{name: cut(sl) for name, cut in per_pose.items()}
+    def solve(poses: slice | NDArray, last: NDArray | None
+              ) -> tuple[TensionSolution, NDArray | None]:
+        part = problem.with_(**{name: cut(poses) for name, cut in per_pose.items()}
                              ) if per_pose else problem
         try:
             return _distribute_batch(
-                robot, p[sl], part, backend, None if w_rows is None else w_rows(sl),
-                last if chained else (None if prev_rows is None else prev_rows(sl)), options)
+                robot, p[poses], part, backend, None if w_rows is None else w_rows(poses),
+                last if chained else (None if prev_rows is None else prev_rows(poses)),
+                options)
         except InvalidInputError as error:
-            raise _renumbered(error, sl.start) from None
+            raise _renumbered(error, poses) from None
 
+    rows = any(np.ndim(getattr(problem, name)) == 2 for name in per_pose)  # (N, m), (1, m)
+    plan = None if rows else certified_plan(robot, problem, backend)
+    if plan is not None:
+        batch = CertifiedBatch(plan, p, None if w_rows is None else w_rows(slice(None)))
+        return _certified_chunks(batch, slices, lambda poses: solve(poses, None)[0], problem)
+    joined = _Joined(N)
     sol, last = solve(slices[0], prev)
     joined.add(sol, slices[0])
     workers = chunk_threads()
@@ -175,23 +183,67 @@ def _distribute_chunks(robot: CableRobot, p: NDArray, problem: TensionProblem,
             last = after if chained else None
         return joined.solution(problem)
     # Independent poses on the compiled closed form: its kernels release the GIL, so
-    # chunks run side by side in threads; at most ``workers`` are in flight (bounded
-    # memory) and they join in order (the result of the serial loop).
+    # chunks run side by side in threads, joined in order (the serial loop's result).
+    _in_order(slices[1:], lambda sl: solve(sl, None)[0], workers,
+              lambda sl, sol: joined.add(sol, sl))
+    return joined.solution(problem)
+
+
+def _certified_chunks(batch: CertifiedBatch, slices: list[slice],
+                      solve: Callable[[NDArray | slice], TensionSolution],
+                      problem: TensionProblem) -> TensionSolution:
+    """A batch of independent poses on the compiled closed form, each chunk in one
+    compiled pass (:mod:`tension_opt.fused`), side by side in threads; ``solve`` answers
+    the poses the kernel leaves (the path of a chunk, on those poses alone)."""
+    def run(sl: slice) -> tuple[NDArray | slice | None, TensionSolution | None, float]:
+        t0 = time.perf_counter()
+        left = batch.solve(sl)
+        elapsed = time.perf_counter() - t0
+        if left is None:
+            return None, None, elapsed
+        sol = solve(left)
+        batch.put(left, sol)
+        return left, sol, elapsed
+
+    extras: dict[str, Any] = {}
+    times = [0.0, 0.0]  # setup, solve
+
+    def join(sl: slice, done: tuple[NDArray | slice | None, TensionSolution | None, float]
+             ) -> None:
+        left, sol, elapsed = done
+        times[1] += elapsed
+        if left is not None and sol is not None:
+            _merge_extras(extras, sol.extras, left)
+            times[0] += sol.setup_time
+            times[1] += sol.solve_time
+
+    _in_order(slices, run, chunk_threads(), join)
+    return batch.solution(problem, extras, *times)
+
+
+def _in_order(parts: list[slice], run: Callable[[slice], Any], workers: int,
+              join: Callable[[slice, Any], None]) -> None:
+    """``join(part, run(part))`` for each part in order, ``run`` on up to ``workers``
+    threads at once (at most that many parts in flight: bounded memory). The first
+    error in the order of the parts is raised, and the parts not started are dropped."""
+    if workers < 2 or len(parts) < 2:
+        for part in parts:
+            join(part, run(part))
+        return
     with ThreadPoolExecutor(workers) as pool:
-        pending: deque[tuple[slice, Future[tuple[TensionSolution, NDArray | None]]]] = deque()
+        pending: deque[tuple[slice, Future[Any]]] = deque()
         try:
-            for sl in slices[1:]:
-                pending.append((sl, pool.submit(solve, sl, None)))
+            for part in parts:
+                pending.append((part, pool.submit(run, part)))
                 if len(pending) >= workers:
                     done, future = pending.popleft()
-                    joined.add(future.result()[0], done)
+                    join(done, future.result())
             while pending:
                 done, future = pending.popleft()
-                joined.add(future.result()[0], done)
+                join(done, future.result())
         finally:
             for _, future in pending:
                 future.cancel()
-    return joined.solution(problem)
 
 
 def chunk_threads() -> int:
@@ -245,13 +297,20 @@ def _pose_rows(name: str, value: ArrayLike | None, N: int, k: int, scalar: bool 
 _POSE_NUMBER = re.compile(r"\bpose (\d+)\b")
 
 
-def _renumbered(error: InvalidInputError, start: int) -> InvalidInputError:
-    """``error`` of a chunk starting at pose ``start``, its pose numbers counted over the
-    whole batch."""
-    if not start:
-        return error
-    text = _POSE_NUMBER.sub(lambda hit: f"pose {int(hit.group(1)) + start}", str(error))
-    return type(error)(text)
+def _in_batch(poses: slice | NDArray, k: int) -> int:
+    """The number in the batch of pose ``k`` of some of its poses (a chunk's slice, or
+    their indices)."""
+    if isinstance(poses, slice):
+        return k + (poses.start or 0)
+    return int(poses[k]) if 0 <= k < len(poses) else k
+
+
+def _renumbered(error: InvalidInputError, poses: slice | NDArray) -> InvalidInputError:
+    """``error`` of some poses of the batch (a chunk's slice, or their indices), its pose
+    numbers counted over the whole batch."""
+    text = _POSE_NUMBER.sub(lambda hit: f"pose {_in_batch(poses, int(hit.group(1)))}",
+                            str(error))
+    return error if text == str(error) else type(error)(text)
 
 
 class _Joined:
@@ -277,7 +336,7 @@ class _Joined:
             if f.name in ("setup_time", "solve_time"):
                 self.fields[f.name] = self.fields.get(f.name, 0.0) + value
             elif f.name == "extras":
-                _merge_extras(self.fields.setdefault("extras", {}), value, sl.start)
+                _merge_extras(self.fields.setdefault("extras", {}), value, sl)
             else:
                 if first:
                     self.fields[f.name] = self._start(f.name, value, n)
@@ -326,20 +385,21 @@ def _rows_of(value: Any, n: int) -> bool:
     return isinstance(value, np.ndarray) and value.ndim >= 1 and value.shape[0] == n
 
 
-def _merge_extras(total: dict[str, Any], part: dict[str, Any], start: int) -> None:
-    """Add a chunk's extras (its poses counted from ``start``) to the batch's ``total``:
-    per-pose errors and fallbacks renumbered, messages joined, anything else kept from
-    the first chunk that has it."""
+def _merge_extras(total: dict[str, Any], part: dict[str, Any], where: slice | NDArray
+                  ) -> None:
+    """Add the extras of some poses (a chunk's slice, or their indices in the batch) to
+    the batch's ``total``: per-pose errors and fallbacks renumbered, messages joined,
+    anything else kept from the first chunk that has it."""
     for key, value in part.items():
         if key == "errors":
             errors = total.setdefault("errors", {})
             for pose, message in value.items():
                 if len(errors) < MAX_ERRORS:
-                    errors[pose + start if isinstance(pose, int) else pose] = message
+                    errors[_in_batch(where, pose) if isinstance(pose, int) else pose] = message
         elif key == "fallback":
             for name, poses in value.items():
                 total.setdefault("fallback", {}).setdefault(name, []).extend(
-                    k + start for k in poses)
+                    _in_batch(where, k) for k in poses)
         elif key not in total:
             total[key] = value
         elif isinstance(value, str) and value not in str(total[key]).split("; "):

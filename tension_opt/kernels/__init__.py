@@ -35,6 +35,9 @@ per-pose loop ran twice as fast with them inlined).
   (numpy references: ``StandardForm.scaling``,
   :func:`tension_opt.certificate.measures_reference`,
   :func:`tension_opt.certificate.estimate_multipliers_reference`);
+- :mod:`tension_opt.kernels.certified`: the closed form of independent poses with its
+  diagnostics and certificate, pose by pose, from the one-pose functions of the
+  modules above (the certified path of large batches, :mod:`tension_opt.fused`);
 - :mod:`tension_opt.kernels.launch`: when a batch kernel runs in parallel (large
   batches, one launch at a time, never in a forked child of an OpenMP process).
 """

@@ -36,11 +36,10 @@ from tension_opt.kernels.lowdim import (
 from tension_opt.kernels.nullspace import null_space, null_space_work
 from tension_opt.solution import FEASIBILITY_TOL
 
-__all__ = ["CODE_BAD_INPUT", "CODE_FALLBACK", "CODE_STATUS", "HEADER", "HUGE", "form_terms",
-           "judge", "pack", "pack_problem", "point4", "pose_scales", "solve_batch",
-           "solve_batch_serial", "solve_form", "solve_forms", "solve_forms_sequence",
-           "solve_forms_serial", "solve_one",
-           "solve_sequence", "work_size"]
+__all__ = ["CODE_BAD_INPUT", "CODE_FALLBACK", "CODE_STATUS", "HEADER", "HUGE", "form_pose",
+           "form_terms", "judge", "pack", "pack_problem", "plain", "point4", "point4_distance",
+           "pose_scales", "solve_batch", "solve_batch_serial", "solve_form", "solve_forms",
+           "solve_forms_sequence", "solve_forms_serial", "solve_one", "solve_sequence", "work_size"]
 
 #: Status codes of the kernels and the :class:`~tension_opt.solution.Status` values
 #: they stand for; :data:`CODE_FALLBACK` asks for the numpy path (singular or badly
@@ -301,7 +300,8 @@ def _solve_viewed(data: NDArray, anchors: NDArray, attachments: NDArray, terms: 
         quadratic = False
         for i in range(m):
             quadratic = quadratic or q[i] != 0.0
-        settled, unique, infeas = point4(A, b, lb, ub, q, c, quadratic, T, rest)
+        settled, unique, off = point4(A, b, lb, ub, q, c, quadratic, T, rest)
+        infeas = point4_distance(lb, ub, rest) if off else np.nan
         if settled and not math.isnan(infeas):
             return 1, True, np.nan, infeas
         if settled:
@@ -378,24 +378,21 @@ def solve_sequence(data: NDArray, poses: NDArray, wrenches: NDArray, last: NDArr
 HUGE = 1e150
 
 
-@njit(cache=True, error_model="numpy")
-def _plain(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray
-           ) -> bool:
+@njit(cache=True, error_model="numpy", inline="always")
+def plain(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray
+          ) -> bool:
     """Whether a pose's data are all of magnitude below :data:`HUGE` (bounds may be
-    infinite) and not NaN."""
+    infinite) and not NaN (one return: see tension_opt.kernels.scaling)."""
+    ok = True
     for i in range(A.shape[0]):
-        if not abs(b[i]) < HUGE:
-            return False
+        ok = ok and abs(b[i]) < HUGE
         for j in range(A.shape[1]):
-            if not abs(A[i, j]) < HUGE:
-                return False
+            ok = ok and abs(A[i, j]) < HUGE
     for j in range(q.size):
-        if not (abs(q[j]) < HUGE and abs(c[j]) < HUGE):
-            return False
-        if not ((abs(lb[j]) < HUGE or lb[j] == -np.inf) and (abs(ub[j]) < HUGE
-                                                            or ub[j] == np.inf)):
-            return False
-    return True
+        ok = ok and abs(q[j]) < HUGE and abs(c[j]) < HUGE
+        ok = ok and (abs(lb[j]) < HUGE or lb[j] == -np.inf) and (abs(ub[j]) < HUGE
+                                                                 or ub[j] == np.inf)
+    return ok
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -403,91 +400,100 @@ def point4(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
            quadratic: bool, T: NDArray, work: NDArray) -> tuple[bool, bool, float]:
     """Four cables, three equations (LP or QP): the numpy path's shortcut
     (``ClosedFormBackend._solve_point4``), tensions written to ``T``; returns
-    ``(settled, unique, infeasibility)``, the infeasibility NaN for a solved pose. A
-    particular solution comes from cables 1-3 by Cramer's rule and the null vector from
-    the same cross products. A pose with no feasible tension is settled here with its
-    distance to feasibility (:func:`~tension_opt.kernels.lowdim.infeasibility_1d` on
-    this line; the numpy path finds the same line by the general path, to rounding),
-    save within the general path's slack; poses with cables 1-3 nearly coplanar, or a
-    cable that does not move along the null vector, are not settled (the general path
-    answers them). ``work``: 17 + 4 m floats."""
-    u = A  # columns u_i = A[:, i]
-    # C_j: u2 x u3, u3 x u1, u1 x u2 (cables 1-3 counted from one), one per row (C
-    # flat in work: a reshaped view costs more than these products).
-    C = work[:9]
+    ``(settled, unique, infeasible)``. A particular solution comes from cables 1-3 by
+    Cramer's rule and the null vector from the same cross products. A pose with no
+    feasible tension is settled here (NaN tensions; its distance to feasibility is
+    :func:`point4_distance`, on this line: the numpy path finds the same line by the
+    general path, to rounding), save within the general path's slack; poses with cables
+    1-3 nearly coplanar, or a cable that does not move along the null vector, are not
+    settled (the general path answers them). ``work``: 17 + 4 m floats."""
+    u = A  # columns u_i = A[:, i]; work: C_j = u2 x u3, u3 x u1, u1 x u2 (cables from one),
+    # the particular solution and the null vector at offsets 0, 9 and 13 (no views).
     for j in range(3):
         a, e = (j + 1) % 3, (j + 2) % 3
-        C[3 * j] = u[1, a] * u[2, e] - u[2, a] * u[1, e]
-        C[3 * j + 1] = u[2, a] * u[0, e] - u[0, a] * u[2, e]
-        C[3 * j + 2] = u[0, a] * u[1, e] - u[1, a] * u[0, e]
-    det = u[0, 0] * C[0] + u[1, 0] * C[1] + u[2, 0] * C[2]
-    if not abs(det) > 1e-9:
-        return False, True, np.nan
-    Tp, n = work[9:13], work[13:17]
-    Tp[3] = 0.0
+        work[3 * j] = u[1, a] * u[2, e] - u[2, a] * u[1, e]
+        work[3 * j + 1] = u[2, a] * u[0, e] - u[0, a] * u[2, e]
+        work[3 * j + 2] = u[0, a] * u[1, e] - u[1, a] * u[0, e]
+    det = u[0, 0] * work[0] + u[1, 0] * work[1] + u[2, 0] * work[2]
+    settled, unique, t = abs(det) > 1e-9, True, np.nan
+    work[12] = 0.0
     for j in range(3):
-        Tp[j] = (b[0] * C[3 * j] + b[1] * C[3 * j + 1] + b[2] * C[3 * j + 2]) / det
-        n[j] = u[0, 3] * C[3 * j] + u[1, 3] * C[3 * j + 1] + u[2, 3] * C[3 * j + 2]
-    n[3] = -det
-    top = max(max(abs(n[0]), abs(n[1])), max(abs(n[2]), abs(n[3])))
+        C0, C1, C2 = work[3 * j], work[3 * j + 1], work[3 * j + 2]
+        work[9 + j] = (b[0] * C0 + b[1] * C1 + b[2] * C2) / det
+        work[13 + j] = u[0, 3] * C0 + u[1, 3] * C1 + u[2, 3] * C2
+    work[16] = -det
+    top = max(max(abs(work[13]), abs(work[14])), max(abs(work[15]), abs(work[16])))
     lo, hi, nn = -np.inf, np.inf, 0.0
     for i in range(4):
-        if not abs(n[i]) > 1e-9 * top:
-            return False, True, np.nan
-        nn += n[i] * n[i]
-        r_lb, r_ub = (lb[i] - Tp[i]) / n[i], (ub[i] - Tp[i]) / n[i]
-        if n[i] > 0:
+        ni, Ti = work[13 + i], work[9 + i]
+        settled = settled and abs(ni) > 1e-9 * top
+        nn += ni * ni
+        r_lb, r_ub = (lb[i] - Ti) / ni, (ub[i] - Ti) / ni
+        if ni > 0:
             lo, hi = max(lo, r_lb), min(hi, r_ub)
         else:
             lo, hi = max(lo, r_ub), min(hi, r_lb)
-    if not lo <= hi:
+    infeasible = settled and not lo <= hi
+    if infeasible:
         # Infeasible unless within the general path's slack (its interval is in units of
         # a unit null vector): then its distance is that of this line, found here
         # without the general path's QR (a few times the cost of a feasible pose).
         typical = pose_scales(A, b, lb)[0]
-        if math.isnan(lo - hi) or (lo - hi) * math.sqrt(nn) <= FEAS_TOL * typical:
-            return False, True, np.nan
-        T[:] = np.nan
-        return True, True, infeasibility_1d(Tp, n, lb, ub, work[17:])
-    unique = True
-    if quadratic:
+        settled = not (math.isnan(lo - hi) or (lo - hi) * math.sqrt(nn) <= FEAS_TOL * typical)
+        if settled:
+            T[:] = np.nan
+    elif settled and quadratic:
         num = den = 0.0
         for i in range(4):
-            num += (q[i] * Tp[i] + c[i]) * n[i]
-            den += q[i] * n[i] * n[i]
+            num += (q[i] * work[9 + i] + c[i]) * work[13 + i]
+            den += q[i] * work[13 + i] * work[13 + i]
         t = -num / den
-        if math.isnan(t):  # numpy's clip keeps a NaN, which sends the pose on
-            return False, True, np.nan
+        settled = not math.isnan(t)  # numpy's clip keeps a NaN, which sends the pose on
         t = min(max(t, lo), hi)
-    else:
+    elif settled:
         slope = cc = tn = 0.0
         for i in range(4):
-            slope += c[i] * n[i]
+            slope += c[i] * work[13 + i]
             cc += c[i] * c[i]
-            tn += Tp[i] * n[i]
+            tn += work[9 + i] * work[13 + i]
         flat = abs(slope) <= FLAT_TOL * math.sqrt(cc * nn)
         t = min(max(-tn / nn, lo), hi) if flat else (lo if slope > 0 else hi)
         unique = not flat or lo == hi
-    if not math.isfinite(t):
-        return False, True, np.nan
-    for i in range(4):
-        T[i] = Tp[i] + t * n[i]
-    return True, unique, np.nan
+    if settled and not infeasible:
+        settled = math.isfinite(t)
+        for i in range(4 if settled else 0):
+            T[i] = work[9 + i] + t * work[13 + i]
+    if (A.size | b.size | lb.size | ub.size | q.size | c.size | T.size | work.size) < 0:
+        settled = False  # never: the arrays read once more (tension_opt.kernels.scaling)
+    return settled, unique if settled else True, settled and infeasible
+
+
+@njit(cache=True, error_model="numpy")
+def point4_distance(lb: NDArray, ub: NDArray, work: NDArray) -> float:
+    """Distance to feasibility (N) of a pose :func:`point4` found infeasible, on its line
+    (``work`` as it left it); a call kept out of the inlined step (see scaling)."""
+    return infeasibility_1d(work[9:13], work[13:17], lb, ub, work[17:])
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _form_pose(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
-               v: NDArray, minmax: bool, quadratic: bool, tol_factor: float, T: NDArray,
-               work: NDArray) -> tuple[int, bool, float]:
+def form_pose(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
+              v: NDArray, minmax: bool, quadratic: bool, tol_factor: float, T: NDArray,
+              work: NDArray) -> tuple[int, bool, float]:
     """One pose's form as :func:`solve_forms` solves it (data within :data:`HUGE`):
     the four-cable shortcut first, as the numpy path, then :func:`solve_form`; returns
     ``(code, unique, infeasibility)``."""
     n, m = A.shape
+    settled, code, unique, infeas = False, CODE_FALLBACK, True, np.nan
     if n == 3 and m == 4 and not minmax:
-        settled, unique, infeas = point4(A, b, lb, ub, q, c, quadratic, T, work)
-        if settled:
-            return (0 if math.isnan(infeas) else 1), unique, infeas
-    code, unique, _, infeas = solve_form(A, b, lb, ub, q, c, v, minmax, tol_factor, T, work)
+        settled, unique, off = point4(A, b, lb, ub, q, c, quadratic, T, work)
+        infeas = point4_distance(lb, ub, work) if off else np.nan
+        code = 0 if math.isnan(infeas) else 1
+    if not settled:
+        code, unique, _, infeas = solve_form(A, b, lb, ub, q, c, v, minmax, tol_factor, T,
+                                             work)
+    if (A.size | b.size | lb.size | ub.size | q.size | c.size | v.size | T.size
+            | work.size) < 0:  # never: the arrays read once more (see point4)
+        code = CODE_FALLBACK
     return code, unique, infeas
 
 
@@ -504,9 +510,9 @@ def _forms_chunk(j: int, A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: ND
         for i in range(m):
             own = own or q[k, i] != 0.0
         code, unique, infeas = CODE_FALLBACK, True, np.nan
-        if own == quadratic and _plain(A[k], b[k], lb[k], ub[k], q[k], c[k]):
-            code, unique, infeas = _form_pose(A[k], b[k], lb[k], ub[k], q[k], c[k], vk,
-                                              minmax, quadratic, tol_factor, T[k], work)
+        if own == quadratic and plain(A[k], b[k], lb[k], ub[k], q[k], c[k]):
+            code, unique, infeas = form_pose(A[k], b[k], lb[k], ub[k], q[k], c[k], vk,
+                                             minmax, quadratic, tol_factor, T[k], work)
         codes[k] = code
         info[k, 0], info[k, 1] = 1.0 if unique else 0.0, infeas
 
@@ -577,13 +583,13 @@ def solve_forms_sequence(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0:
     for k in range(start, N):
         form_terms(q0[k], c0[k], lb0[k], ub0[k], smoothing, rate, last, has_last, q, c, lb,
                    ub)
-        if not _plain(A[k], b[k], lb, ub, q, c):
+        if not plain(A[k], b[k], lb, ub, q, c):
             return k
         quadratic = False
         for i in range(m):
             quadratic = quadratic or q[i] != 0.0
-        code, unique, infeas = _form_pose(A[k], b[k], lb, ub, q, c, v, False, quadratic,
-                                          tol_factor, T[k], rest)
+        code, unique, infeas = form_pose(A[k], b[k], lb, ub, q, c, v, False, quadratic,
+                                         tol_factor, T[k], rest)
         if code >= 4:
             return k
         codes[k] = code

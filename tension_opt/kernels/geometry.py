@@ -25,6 +25,7 @@ __all__ = [
     "GEOMETRY_OK",
     "GEOMETRY_OVERFLOW",
     "KIND_CODES",
+    "compiled_kind",
     "geometry_batch",
     "geometry_into",
     "geometry_serial",
@@ -52,34 +53,36 @@ def kind_code(kind: str) -> int:
 @njit(cache=True, error_model="numpy", inline="always")
 def rotation(kind: int, pose: NDArray) -> tuple[float, float, float, float, float, float,
                                                 float, float, float]:
-    """Rotation matrix of a pose, row by row (identity if the kind does not rotate)."""
+    """Rotation matrix of a pose, row by row (identity if the kind does not rotate).
+    One return (see :mod:`tension_opt.kernels.scaling`)."""
+    R = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
     if kind == 2:
         c, s = math.cos(pose[2]), math.sin(pose[2])
-        return c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0
-    if kind != 3:
-        return 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
-    rx, ry, rz = pose[3], pose[4], pose[5]
-    angle = math.sqrt(rx * rx + ry * ry + rz * rz)
-    if angle <= 1e-3:  # scipy's series of sin(angle / 2) / angle
-        a2 = angle * angle
-        scale = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
-    else:
-        scale = math.sin(0.5 * angle) / angle
-    x, y, z, w = scale * rx, scale * ry, scale * rz, math.cos(0.5 * angle)
-    x2, y2, z2, w2 = x * x, y * y, z * z, w * w
-    xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
-    return (x2 - y2 - z2 + w2, 2.0 * (xy - zw), 2.0 * (xz + yw),
-            2.0 * (xy + zw), -x2 + y2 - z2 + w2, 2.0 * (yz - xw),
-            2.0 * (xz - yw), 2.0 * (yz + xw), -x2 - y2 + z2 + w2)
+        R = (c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
+    elif kind == 3:
+        rx, ry, rz = pose[3], pose[4], pose[5]
+        angle = math.sqrt(rx * rx + ry * ry + rz * rz)
+        if angle <= 1e-3:  # scipy's series of sin(angle / 2) / angle
+            a2 = angle * angle
+            scale = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
+        else:
+            scale = math.sin(0.5 * angle) / angle
+        x, y, z, w = scale * rx, scale * ry, scale * rz, math.cos(0.5 * angle)
+        x2, y2, z2, w2 = x * x, y * y, z * z, w * w
+        xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
+        R = (x2 - y2 - z2 + w2, 2.0 * (xy - zw), 2.0 * (xz + yw),
+             2.0 * (xy + zw), -x2 + y2 - z2 + w2, 2.0 * (yz - xw),
+             2.0 * (xz - yw), 2.0 * (yz + xw), -x2 - y2 + z2 + w2)
+    if pose.size < 0:  # never: the pose read after the branches (tension_opt.kernels.scaling)
+        R = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    return R
 
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _position(kind: int, pose: NDArray) -> tuple[float, float, float]:
-    if kind == 1:
-        return pose[0], 0.0, pose[1]
-    if kind == 2:
-        return pose[0], pose[1], 0.0
-    return pose[0], pose[1], pose[2]
+    y = pose[1] if kind != 1 else 0.0
+    z = pose[1] if kind == 1 else (0.0 if kind == 2 else pose[2])
+    return pose[0], y, z  # pose read last outside the branches (tension_opt.kernels.scaling)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -87,16 +90,17 @@ def _put(kind: int, M: NDArray, i: int, f0: float, f1: float, f2: float, f3: flo
          f4: float, f5: float) -> None:
     """Write the rows of a full wrench ``(f, m)`` that the kind keeps into column ``i``
     of ``M`` (rows x, y, z for point3; x, z for planar_point2; x, y, moment z for
-    planar3; all six for spatial6)."""
-    if kind == 0:
-        M[0, i], M[1, i], M[2, i] = f0, f1, f2
-    elif kind == 1:
-        M[0, i], M[1, i] = f0, f2
+    planar3; all six for spatial6). Row 0, x for every kind, is written last, outside
+    the branches (see :mod:`tension_opt.kernels.scaling`)."""
+    if kind == 1:
+        M[1, i] = f2
     elif kind == 2:
-        M[0, i], M[1, i], M[2, i] = f0, f1, f5
+        M[1, i], M[2, i] = f1, f5
     else:
-        M[0, i], M[1, i], M[2, i] = f0, f1, f2
-        M[3, i], M[4, i], M[5, i] = f3, f4, f5
+        M[1, i], M[2, i] = f1, f2
+        if kind == 3:
+            M[3, i], M[4, i], M[5, i] = f3, f4, f5
+    M[0, i] = f0
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -193,6 +197,16 @@ def geometry_serial(kind: int, anchors: NDArray, attachments: NDArray, com: NDAr
                                  poses[k], w, A[k], b[k])
 
 
+def compiled_kind(robot: Any) -> int:
+    """The kernels' code of a robot's kind (:data:`KIND_CODES`), or -1 where the
+    kernels do not know it (another kind, or a pattern of its own under a known
+    name)."""
+    code = KIND_CODES.get(robot.kind, -1)
+    if code < 0 or type(robot.pattern) is not type(KINDS[robot.kind]):
+        return -1
+    return code
+
+
 def robot_geometry(robot: Any, poses: NDArray, wrench: ArrayLike | None
                    ) -> tuple[NDArray, NDArray] | None:
     """Structure matrices (N, n, m) and required wrenches (N, n) of a robot's validated
@@ -212,8 +226,8 @@ def robot_geometry(robot: Any, poses: NDArray, wrench: ArrayLike | None
     wrench : array_like, shape (n,) or (N, n), optional
         External wrench besides gravity (N, N m).
     """
-    code = KIND_CODES.get(robot.kind, -1)
-    if code < 0 or type(robot.pattern) is not type(KINDS[robot.kind]):
+    code = compiled_kind(robot)
+    if code < 0:
         return None
     N, n = poses.shape
     if wrench is None:

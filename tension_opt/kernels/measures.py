@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["batch_measures"]
+__all__ = ["batch_measures", "pose_measures"]
 
 
 @njit(cache=True, inline="always")
@@ -28,14 +28,78 @@ def _worst(a: float, b: float) -> float:
     return a if a >= b else b
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def pose_measures(P: NDArray, c: NDArray, Aeq: NDArray, beq: NDArray, G: NDArray,
+                  h: NDArray, lb: NDArray, ub: NDArray, x: NDArray, y: NDArray,
+                  mu: NDArray, z: NDArray, station: NDArray) -> tuple[float, float, float]:
+    """Primal residual, dual residual and relative duality gap of one scaled pose
+    (the arrays of :func:`batch_measures` at one pose; ``station`` (k,) work space),
+    in one pass over its bounds, equations and rows; NaN for a solution ``x`` that
+    is not finite."""
+    n, k = Aeq.shape
+    g = G.shape[0]
+    solved = True
+    for i in range(k):
+        solved = solved and math.isfinite(x[i])
+    worst = 0.0
+    gap = 0.0
+    objective = 0.0
+    for i in range(k):
+        xi = x[i]
+        lo, hi = lb[i], ub[i]
+        if math.isfinite(lo):
+            worst = _worst(worst, lo - xi)
+        if math.isfinite(hi):
+            worst = _worst(worst, xi - hi)
+        grad = P[i] * xi + c[i]
+        zi = z[i]  # in its cone: >= 0 needs a finite upper bound, <= 0 a lower
+        if zi > 0.0 and not math.isfinite(hi):
+            zi = 0.0
+        elif zi < 0.0 and not math.isfinite(lo):
+            zi = 0.0
+        station[i] = grad + zi
+        gap += grad * xi
+        if zi > 0.0:
+            gap += hi * zi
+        elif zi < 0.0:
+            gap += lo * zi
+        elif math.isnan(zi):
+            gap = np.nan
+        objective += (0.5 * P[i] * xi + c[i]) * xi
+    for r in range(n):
+        row = -beq[r]
+        yr = y[r]
+        for i in range(k):
+            row += Aeq[r, i] * x[i]
+            station[i] += Aeq[r, i] * yr
+        worst = _worst(worst, abs(row))
+        gap += beq[r] * yr
+    for r in range(g):
+        row = -h[r]
+        mr = mu[r]
+        if mr < 0.0:
+            mr = 0.0
+        for i in range(k):
+            row += G[r, i] * x[i]
+            station[i] += G[r, i] * mr
+        worst = _worst(worst, row)
+        gap += h[r] * mr
+    stationarity = 0.0
+    for i in range(k):
+        stationarity = _worst(stationarity, abs(station[i]))
+    relative = abs(gap) / _worst(1.0, abs(objective))
+    if not solved:
+        worst = stationarity = relative = np.nan
+    # One return (see tension_opt.kernels.scaling): the arrays' reference counts pruned.
+    return worst, stationarity, relative
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def batch_measures(P: NDArray, c: NDArray, Aeq: NDArray, beq: NDArray, G: NDArray,
                    h: NDArray, lb: NDArray, ub: NDArray, x: NDArray, y: NDArray,
                    mu: NDArray, z: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-    """Primal residual, dual residual and relative duality gap of scaled solutions.
-
-    A hot numerical kernel: one pass per pose over its bounds, equations and rows, kept
-    in one loop so that nothing is allocated per pose.
+    """Primal residual, dual residual and relative duality gap of scaled solutions
+    (:func:`pose_measures` per pose; nothing allocated per pose).
 
     Parameters
     ----------
@@ -51,67 +115,13 @@ def batch_measures(P: NDArray, c: NDArray, Aeq: NDArray, beq: NDArray, G: NDArra
     -------
     primal, dual, gap : ndarray, shape (N,)
     """
-    N, n, k = Aeq.shape
-    g = G.shape[1]
+    N, _, k = Aeq.shape
     primal = np.empty(N)
     dual = np.empty(N)
     relative = np.empty(N)
     station = np.empty(k)
     for p in range(N):
-        solved = True
-        for i in range(k):
-            if not math.isfinite(x[p, i]):
-                solved = False
-        if not solved:
-            primal[p] = dual[p] = relative[p] = np.nan
-            continue
-        worst = 0.0
-        gap = 0.0
-        objective = 0.0
-        for i in range(k):
-            xi = x[p, i]
-            lo, hi = lb[p, i], ub[p, i]
-            if math.isfinite(lo):
-                worst = _worst(worst, lo - xi)
-            if math.isfinite(hi):
-                worst = _worst(worst, xi - hi)
-            grad = P[p, i] * xi + c[p, i]
-            zi = z[p, i]  # in its cone: >= 0 needs a finite upper bound, <= 0 a lower
-            if zi > 0.0 and not math.isfinite(hi):
-                zi = 0.0
-            elif zi < 0.0 and not math.isfinite(lo):
-                zi = 0.0
-            station[i] = grad + zi
-            gap += grad * xi
-            if zi > 0.0:
-                gap += hi * zi
-            elif zi < 0.0:
-                gap += lo * zi
-            elif math.isnan(zi):
-                gap = np.nan
-            objective += (0.5 * P[p, i] * xi + c[p, i]) * xi
-        for r in range(n):
-            row = -beq[p, r]
-            yr = y[p, r]
-            for i in range(k):
-                row += Aeq[p, r, i] * x[p, i]
-                station[i] += Aeq[p, r, i] * yr
-            worst = _worst(worst, abs(row))
-            gap += beq[p, r] * yr
-        for r in range(g):
-            row = -h[p, r]
-            mr = mu[p, r]
-            if mr < 0.0:
-                mr = 0.0
-            for i in range(k):
-                row += G[p, r, i] * x[p, i]
-                station[i] += G[p, r, i] * mr
-            worst = _worst(worst, row)
-            gap += h[p, r] * mr
-        stationarity = 0.0
-        for i in range(k):
-            stationarity = _worst(stationarity, abs(station[i]))
-        primal[p] = worst
-        dual[p] = stationarity
-        relative[p] = abs(gap) / _worst(1.0, abs(objective))
+        primal[p], dual[p], relative[p] = pose_measures(
+            P[p], c[p], Aeq[p], beq[p], G[p], h[p], lb[p], ub[p], x[p], y[p], mu[p], z[p],
+            station)
     return primal, dual, relative

@@ -18,7 +18,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["batch_estimate", "solve_small"]
+__all__ = ["batch_estimate", "pose_estimate", "solve_small"]
 
 #: Largest finite double (``np.nan_to_num``'s stand-in for an infinite multiplier).
 _HUGE = np.finfo(np.float64).max
@@ -29,13 +29,15 @@ def solve_small(H: NDArray, u: NDArray) -> bool:
     """Solve ``H v = u`` in place (``u`` becomes ``v``; ``H`` is overwritten) by
     Gaussian elimination with partial pivoting; False for a zero pivot."""
     r = H.shape[0]
+    ok = True
     for col in range(r):
         pivot = col
         for row in range(col + 1, r):
             if abs(H[row, col]) > abs(H[pivot, col]):
                 pivot = row
         if H[pivot, col] == 0.0 or not math.isfinite(H[pivot, col]):
-            return False
+            ok = False
+            break
         if pivot != col:
             for j in range(r):
                 H[col, j], H[pivot, j] = H[pivot, j], H[col, j]
@@ -46,22 +48,89 @@ def solve_small(H: NDArray, u: NDArray) -> bool:
                 for j in range(col, r):
                     H[row, j] -= factor * H[col, j]
                 u[row] -= factor * u[col]
-    for col in range(r - 1, -1, -1):
+    for col in range(r - 1 if ok else -1, -1, -1):
         total = u[col]
         for j in range(col + 1, r):
             total -= H[col, j] * u[j]
         u[col] = total / H[col, col]
-    return True
+    # One return (see tension_opt.kernels.scaling): the arrays' reference counts pruned.
+    return ok
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def pose_estimate(P: NDArray, c: NDArray, Aeq: NDArray, G: NDArray, h: NDArray,
+                  lb: NDArray, ub: NDArray, x: NDArray, ridge: float, y: NDArray,
+                  mu: NDArray, z: NDArray, B: NDArray, H: NDArray, u: NDArray,
+                  grad: NDArray, shrink: NDArray) -> bool:
+    """Multipliers ``y`` (n,), ``mu`` (g,), ``z`` (k,) of one solved scaled pose (the
+    arrays of :func:`batch_estimate` at one pose), written; its normal equations built
+    and solved in place in the work arrays ``B`` (k, n + g), ``H`` (n + g, n + g),
+    ``u`` (n + g,), ``grad`` and ``shrink`` (k,). False (and NaN multipliers) where
+    the system is singular."""
+    n, k = Aeq.shape
+    g = G.shape[0]
+    r = n + g
+    for i in range(k):
+        grad[i] = P[i] * x[i] + c[i]
+        near = min(abs(x[i] - lb[i]), abs(ub[i] - x[i]))
+        shrink[i] = 1.0 / (1.0 + near * near)  # 0 where there is no bound
+        for j in range(n):
+            B[i, j] = Aeq[j, i]
+        for j in range(g):
+            B[i, n + j] = G[j, i]
+    # The normal equations, each entry summed over i in order; i outermost, so that the
+    # entries' sums run side by side.
+    for a in range(r):
+        u[a] = 0.0
+        for b in range(a, r):
+            H[a, b] = 0.0
+    for i in range(k):
+        weight = 1.0 - shrink[i]
+        for a in range(r):
+            Bw = B[i, a] * weight
+            u[a] -= Bw * grad[i]
+            for b in range(a, r):
+                H[a, b] += Bw * B[i, b]
+    top = 0.0
+    for a in range(r):
+        for b in range(a + 1, r):
+            H[b, a] = H[a, b]
+        top = max(top, abs(H[a, a]))
+    top = max(top, 1.0)
+    for a in range(r):
+        extra = 0.0
+        if a >= n:
+            slack = 0.0
+            for i in range(k):
+                slack += G[a - n, i] * x[i]
+            slack = min(abs(h[a - n] - slack), 1e6)
+            extra = slack * slack
+        H[a, a] += extra + ridge * top
+    ok = solve_small(H, u)
+    for j in range(n):
+        y[j] = u[j] if ok else np.nan
+    for j in range(g):
+        mu[j] = u[n + j] if ok else np.nan
+    for i in range(k):
+        total = grad[i]
+        for a in range(r):
+            total += B[i, a] * u[a]
+        zi = -total * shrink[i]
+        if math.isnan(zi):
+            zi = 0.0
+        elif math.isinf(zi):
+            zi = _HUGE if zi > 0 else -_HUGE
+        z[i] = zi if ok else np.nan
+    return ok
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def batch_estimate(P: NDArray, c: NDArray, Aeq: NDArray, G: NDArray, h: NDArray,
                    lb: NDArray, ub: NDArray, x: NDArray, ridge: float
                    ) -> tuple[NDArray, NDArray, NDArray]:
-    """Multipliers ``y`` (N, n), ``mu`` (N, g), ``z`` (N, k) of solved scaled poses.
-
-    A hot numerical kernel: each pose's normal equations are built and solved in one
-    pass, without the (N, k, n + g) temporaries of the numpy reference.
+    """Multipliers ``y`` (N, n), ``mu`` (N, g), ``z`` (N, k) of solved scaled poses
+    (:func:`pose_estimate` per pose, without the (N, k, n + g) temporaries of the
+    numpy reference).
 
     Parameters
     ----------
@@ -90,51 +159,6 @@ def batch_estimate(P: NDArray, c: NDArray, Aeq: NDArray, G: NDArray, h: NDArray,
     grad = np.empty(k)
     shrink = np.empty(k)
     for p in range(N):
-        for i in range(k):
-            grad[i] = P[p, i] * x[p, i] + c[p, i]
-            near = min(abs(x[p, i] - lb[p, i]), abs(ub[p, i] - x[p, i]))
-            shrink[i] = 1.0 / (1.0 + near * near)  # 0 where there is no bound
-            for j in range(n):
-                B[i, j] = Aeq[p, j, i]
-            for j in range(g):
-                B[i, n + j] = G[p, j, i]
-        top = 0.0
-        for a in range(r):
-            total = 0.0
-            for i in range(k):
-                total -= B[i, a] * (1.0 - shrink[i]) * grad[i]
-            u[a] = total
-            for b in range(a, r):
-                total = 0.0
-                for i in range(k):
-                    total += B[i, a] * (1.0 - shrink[i]) * B[i, b]
-                H[a, b] = H[b, a] = total
-            top = max(top, abs(H[a, a]))
-        top = max(top, 1.0)
-        for a in range(r):
-            extra = 0.0
-            if a >= n:
-                slack = 0.0
-                for i in range(k):
-                    slack += G[p, a - n, i] * x[p, i]
-                slack = min(abs(h[p, a - n] - slack), 1e6)
-                extra = slack * slack
-            H[a, a] += extra + ridge * top
-        if not solve_small(H, u):
-            y[p, :], mu[p, :], z[p, :] = np.nan, np.nan, np.nan
-            continue
-        for j in range(n):
-            y[p, j] = u[j]
-        for j in range(g):
-            mu[p, j] = u[n + j]
-        for i in range(k):
-            total = grad[i]
-            for a in range(r):
-                total += B[i, a] * u[a]
-            zi = -total * shrink[i]
-            if math.isnan(zi):
-                zi = 0.0
-            elif math.isinf(zi):
-                zi = _HUGE if zi > 0 else -_HUGE
-            z[p, i] = zi
+        pose_estimate(P[p], c[p], Aeq[p], G[p], h[p], lb[p], ub[p], x[p], ridge, y[p], mu[p],
+                      z[p], B, H, u, grad, shrink)
     return y, mu, z

@@ -9,7 +9,16 @@ stand-in where the reference tension overflows, the row floor and the upper-boun
 share), so both agree to rounding.
 
 :func:`pose_scaling` is one pose (also used by the real-time DAQP path,
-:mod:`tension_opt.kernels.dense_qp`); :func:`batch_scaling` runs it over a batch.
+:mod:`tension_opt.kernels.dense_qp`); :func:`batch_scaling` runs it over a batch;
+:func:`pose_scaled` writes one pose's whole scaled problem (the certified closed form,
+:mod:`tension_opt.kernels.certified`).
+
+The one-pose functions, inlined into the loops that call them, return once, at their
+end, and read each array argument last outside any branch: numba counts a reference to
+each array argument of an inlined function and releases it after the argument's last
+use, and LLVM's pruning of these counts gives up where a release sits in a branch or
+before one of several exits, leaving two atomic operations per array and call (they
+cost the study robot's certified closed form about half its time).
 """
 
 from __future__ import annotations
@@ -20,7 +29,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["batch_scaling", "pose_scaling", "safe_norm_of"]
+__all__ = ["batch_scaling", "pose_scaled", "pose_scaling", "safe_norm_of"]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -33,13 +42,16 @@ def safe_norm_of(x: NDArray) -> float:
         a = abs(v)
         if not a <= top:  # NaN propagates
             top = a
-    if top == 0.0 or not math.isfinite(top):
-        return top
-    total = 0.0
-    for v in x:
-        r = v / top
-        total += r * r
-    return top * math.sqrt(total)
+    norm = top
+    if top != 0.0 and math.isfinite(top):
+        total = 0.0
+        for v in x:
+            r = v / top
+            total += r * r
+        norm = top * math.sqrt(total)
+    if x.size < 0:  # never: x read after the branch (see the module docstring)
+        norm = np.nan
+    return norm
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -103,9 +115,76 @@ def pose_scaling(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c
         linear = max(linear, abs(c[i]))
     if vmax > 0.0:
         linear = max(linear, vmax)
-    if quadratic > 0.0:
-        return s, quadratic, True
-    return s, linear if linear > 0.0 else 1.0, False
+    square = quadratic > 0.0
+    if (A.size | b.size | lb.size | ub.size | q.size | c.size | rows.size) < 0:
+        s = np.nan  # never: the arrays read after the branches (see the module docstring)
+    return s, quadratic if square else (linear if linear > 0.0 else 1.0), square
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def pose_scaled(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
+                v: NDArray, vmax: float, ub_share: float, row_floor: float, rows: NDArray,
+                P: NDArray, cs: NDArray, Aeq: NDArray, beq: NDArray, G: NDArray, h: NDArray,
+                lbs: NDArray, ubs: NDArray, again: bool) -> float:
+    """The scaled, lifted problem of one pose, as :func:`tension_opt.scaled.scaled_batch`
+    writes it (its numpy reference), from the pose's form (``A`` (n, m), ``b`` (n,),
+    ``lb``, ``ub``, ``q``, ``c`` (m,)).
+
+    Parameters
+    ----------
+    v : ndarray, shape (m,)
+        Min-max weights (read only with a min-max term).
+    vmax : float
+        Largest min-max weight, 0 without a min-max term (:func:`pose_scaling`).
+    ub_share, row_floor : float
+        As :func:`pose_scaling`.
+    rows : ndarray, shape (n,)
+        Written: the factors of the equilibrium rows.
+    P, cs, lbs, ubs : ndarray, shape (k,)
+    Aeq : ndarray, shape (n, k)
+    beq : ndarray, shape (n,)
+    G : ndarray, shape (g, k)
+    h : ndarray, shape (g,)
+        Written: the scaled problem, ``k = m + 1`` and ``g = m`` with a min-max term
+        (its epigraph variable and rows), else ``k = m`` and ``g = 0``.
+    again : bool
+        Whether these arrays hold the scaled problem of another pose with the same
+        ``q``, ``c``, ``v`` and bounds: what does not depend on the pose (``P``, a
+        linear ``cs``, the epigraph's rows and bounds) is then left as it is.
+
+    Returns
+    -------
+    float
+        The reference tension ``s`` (N): ``T = s x``.
+    """
+    n, m = A.shape
+    s, top, quadratic = pose_scaling(A, b, lb, ub, q, c, vmax, ub_share, row_floor, rows)
+    per_s = s if quadratic else 1.0  # a QP's linear term also shrinks by s
+    # (Loops that run only where needed, rather than branches: see the module docstring.)
+    for i in range(m):
+        lbs[i] = lb[i] / s
+        ubs[i] = ub[i] / s
+    for i in range(0 if again else m):
+        P[i] = q[i] / top
+    for i in range(0 if again and not quadratic else m):
+        cs[i] = c[i] / top / per_s
+    for r in range(n):
+        for i in range(m):
+            Aeq[r, i] = A[r, i] * rows[r]
+        beq[r] = b[r] * rows[r] / s
+    # The epigraph variable t >= (v_i / vmax) x_i of a min-max term and its m rows.
+    unit = vmax if vmax > 0.0 else 1.0
+    for j in range(m, P.shape[0]):
+        cs[j] = unit / top / per_s
+    for j in range(P.shape[0] if again else m, P.shape[0]):
+        P[j], lbs[j], ubs[j] = 0.0, -np.inf, np.inf
+        for r in range(n):
+            Aeq[r, j] = 0.0
+    for r in range(0 if again else G.shape[0]):
+        for i in range(m):
+            G[r, i] = 0.0
+        G[r, r], G[r, m], h[r] = v[r] / unit, -1.0, 0.0
+    return s
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -67,6 +67,10 @@ for objective, backend in (("min_sum", "closed_form"), ("min_norm", "auto")):
                  "bound_violation", "infeasibility", "iterations"):
         a, b = getattr(whole, name)[pick], getattr(few, name)
         same[name] = bool(np.array_equal(a, b, equal_nan=a.dtype.kind == "f"))
+        if name in ("objective", "residual", "bound_violation"):
+            # Sums in another order (the certified path of large batches): to rounding
+            # of the tensions' size.
+            same[name] = bool(np.allclose(a, b, rtol=1e-12, atol=1e-9, equal_nan=True))
     report[f"{objective}/{backend}"] = {
         "same": same, "optimal": int((whole.status == to.Status.OPTIMAL).sum()),
         "form": whole.form is None, "N": whole.N}
@@ -109,11 +113,14 @@ def _poses(robot: to.CableRobot, N: int, seed: int, spread: float = 1.0) -> np.n
     return np.random.default_rng(seed).uniform(mid - half, mid + half, (N, robot.dof))
 
 
-def assert_same(a: to.TensionSolution, b: to.TensionSolution) -> None:
+def assert_same(a: to.TensionSolution, b: to.TensionSolution, rounding: bool = False) -> None:
     """Every per-pose field, labels and extras equal (NaN where NaN).
 
     The min-sum objective is a matrix product, whose BLAS kernel for one to three rows
     (a chunk that small) may round the last bit otherwise: it is compared to 1e-15.
+    With ``rounding`` (one solution from the certified path of large batches, whose sums
+    run in another order), the objective is compared to 1e-12 and the equilibrium
+    residual and bound violation to 1e-12 of the pose's largest tension.
     """
     for f in fields(a):
         if f.name in ("form", "setup_time", "solve_time", "problem"):
@@ -125,7 +132,11 @@ def assert_same(a: to.TensionSolution, b: to.TensionSolution) -> None:
                 u, v = getattr(x, g.name), getattr(y, g.name)
                 assert np.array_equal(u, v, equal_nan=True), (f.name, g.name)
         elif f.name == "objective":
-            np.testing.assert_allclose(x, y, rtol=1e-15, atol=0.0)
+            np.testing.assert_allclose(x, y, rtol=1e-12 if rounding else 1e-15, atol=0.0)
+        elif rounding and f.name in ("residual", "bound_violation"):
+            size = np.nanmax(np.abs(b.tensions), axis=1, initial=1.0)
+            np.testing.assert_array_equal(np.isnan(x), np.isnan(y), err_msg=f.name)
+            assert (np.abs(x - y)[~np.isnan(y)] <= 1e-12 * size[~np.isnan(y)]).all(), f.name
         elif isinstance(x, np.ndarray):
             assert isinstance(y, np.ndarray) and x.shape == y.shape, f.name
             assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), f.name
@@ -147,7 +158,7 @@ def test_chunks_give_the_unchunked_result(size: int, seed: int, objective: str) 
     poses = _poses(robot, 60, seed, spread=1.6)
     whole = to.distribute(robot, poses, objective, "closed_form")
     chunked = to.distribute(robot, poses, objective, "closed_form", chunk_size=size)
-    assert_same(whole, chunked)
+    assert_same(whole, chunked, rounding=size < len(poses))
     assert chunked.problem is whole.problem or chunked.problem.name == whole.problem.name
     assert (chunked.form is None) == (size < len(poses))
 
@@ -224,6 +235,9 @@ def test_extras_count_poses_over_the_whole_batch(cogiro: to.CableRobot,
         return raw
 
     monkeypatch.setattr(ClosedFormBackend, "solve", failing)
+    # The certified path of large batches does not call the backend's solve: off here
+    # (its poses handed on are numbered in tests/tension_opt/test_fused_distribute.py).
+    monkeypatch.setattr(distribute_module, "certified_plan", lambda *args: None)
     poses = _poses(cogiro, 40, 11)
     whole = to.distribute(cogiro, poses, "min_sum", "auto")
     moved = [k for ks in whole.extras["fallback"].values() for k in ks]

@@ -1,0 +1,165 @@
+"""A large batch of independent poses on the compiled closed form, certified in one
+compiled pass per chunk (:mod:`tension_opt.kernels.certified`).
+
+:func:`tension_opt.distribute` cuts a large batch into chunks; on the compiled closed
+form each chunk would go through the geometry, the standard form, the backend and
+:meth:`~tension_opt.solution.TensionSolution.from_form` (the certificate on the scaled
+batch) as arrays of the chunk, then be copied into the batch's arrays. Here one
+compiled call per chunk does all of it pose by pose and writes the results into the
+arrays of the whole batch. A pose it does not settle (see the kernel's module) is
+solved by that path on its own, and its results written over the kernel's, so every
+field is the path's to rounding.
+
+:func:`certified_plan` says whether a call qualifies: a robot kind of the compiled
+geometry, one of the package's five objectives without smoothing, rate limit or
+per-pose rows, and the compiled closed form as the backend (named, an instance, or the
+automatic choice).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tension_opt.backends.closed_form import ClosedFormBackend
+from tension_opt.backends.registry import choose_backend
+from tension_opt.certificate import Multipliers, accuracy_target
+from tension_opt.errors import TensionOptError
+from tension_opt.problems import TensionProblem
+from tension_opt.robot import CableRobot
+from tension_opt.solution import STATUS_DTYPE, TensionSolution
+
+__all__ = ["CertifiedBatch", "CertifiedPlan", "certified_plan"]
+
+
+@dataclass(frozen=True)
+class CertifiedPlan:
+    """What the kernel needs of a call: its packed data
+    (:func:`~tension_opt.kernels.certified.pack_certified`), the backend (for the
+    labels), the accuracy target, and the shapes of the multipliers: ``n`` equations,
+    ``g`` rows (the epigraph rows of a min-max term) and ``k`` scaled variables."""
+
+    data: NDArray
+    backend: ClosedFormBackend
+    target: float
+    n: int
+    g: int
+    k: int
+
+
+def certified_plan(robot: CableRobot, problem: TensionProblem, backend: Any
+                   ) -> CertifiedPlan | None:
+    """The plan of a call of :func:`tension_opt.distribute` on a large batch of
+    independent poses whose problem has no per-pose rows (bounds, reference), or None
+    where the call does not qualify (see the module docstring). A problem or backend
+    the path would reject is None too: the path raises its own error."""
+    from tension_opt.kernels.certified import pack_certified
+    from tension_opt.kernels.geometry import compiled_kind
+
+    if problem.is_sequential or compiled_kind(robot) < 0:
+        return None
+    n, m = robot.dof, robot.m
+    try:  # the shapes and kind of the batch's forms, on a stand-in pose
+        form = problem.standard_form_from(robot, np.zeros((1, n, m)), np.zeros((1, n)))
+        chosen = choose_backend(backend, form)
+    except TensionOptError:
+        return None
+    if not (isinstance(chosen, ClosedFormBackend) and chosen.compiled):
+        return None
+    # The closed form takes no accuracy option: its solutions are judged at the
+    # default target (TensionSolution.from_form without a backend's target).
+    target = accuracy_target(None)
+    data = pack_certified(robot, problem, target)
+    if data is None:
+        return None
+    g = 0 if form.minmax is None else m
+    return CertifiedPlan(data, chosen, target, n, g, m + (g > 0))
+
+
+#: Per-pose fields of a :class:`TensionSolution` the kernel writes, in its order.
+_MEASURES = ("objective", "residual", "bound_violation", "infeasibility",
+             "primal_residual", "dual_residual", "duality_gap")
+
+
+class CertifiedBatch:
+    """The results of a batch, written chunk by chunk (:meth:`solve`, :meth:`put`) into
+    arrays allocated once, then handed over as one :class:`TensionSolution`
+    (:meth:`solution`). Chunks may be solved from several threads at once (the kernel
+    releases the GIL; each chunk writes only its own rows).
+
+    Parameters
+    ----------
+    plan : CertifiedPlan
+    poses : ndarray, shape (N, n)
+        Validated poses.
+    wrench : ndarray, shape (n,) or (N, n), optional
+        Finite external wrenches (N, N m).
+    """
+
+    def __init__(self, plan: CertifiedPlan, poses: NDArray,
+                 wrench: NDArray | None) -> None:
+        N, m = len(poses), int(plan.data[1])
+        self.plan, self.N = plan, N
+        self.poses = np.ascontiguousarray(poses, dtype=float)
+        w = np.zeros((1, plan.n)) if wrench is None else np.asarray(wrench, dtype=float)
+        self.wrench = np.ascontiguousarray(w.reshape(-1, plan.n))
+        self.tensions = np.empty((N, m))
+        self.codes = np.empty(N, dtype=np.int8)
+        self.status = np.empty(N, dtype=STATUS_DTYPE)
+        self.unique = np.empty(N, dtype=bool)
+        self.measures = {name: np.empty(N) for name in _MEASURES}
+        self.iterations: NDArray | None = np.zeros(N, dtype=int)
+        self.multipliers = Multipliers(np.empty((N, plan.n)), np.empty((N, plan.g)),
+                                       np.empty((N, plan.k)))
+
+    def solve(self, sl: slice) -> NDArray | slice | None:
+        """Solve the poses ``sl`` by the kernel; returns the poses left to the caller
+        (their indices in the batch; the whole slice if the kernel flags a pose's
+        geometry, so that the caller's path raises its error as it would), or None."""
+        from tension_opt.kernels.certified import (
+            CODE_GEOMETRY,
+            STATUS_VALUES,
+            certified_poses,
+        )
+
+        wrench = self.wrench if len(self.wrench) == 1 else self.wrench[sl]
+        mult = self.multipliers
+        left = certified_poses(self.plan.data, self.poses[sl], wrench, self.tensions[sl],
+                               self.codes[sl], self.unique[sl],
+                               *(self.measures[name][sl] for name in _MEASURES),
+                               mult.y[sl], mult.mu[sl], mult.z[sl])
+        codes = self.codes[sl]
+        np.take(STATUS_VALUES, codes, out=self.status[sl], mode="clip")
+        if not left:
+            return None
+        if (codes == CODE_GEOMETRY).any():
+            return sl
+        return sl.start + np.flatnonzero(codes > len(STATUS_VALUES) - 1)
+
+    def put(self, index: NDArray | slice, sol: TensionSolution) -> None:
+        """Write the solution ``sol`` of the poses ``index``."""
+        self.tensions[index], self.status[index] = sol.tensions, sol.status
+        self.unique[index] = sol.unique
+        for name, values in self.measures.items():
+            values[index] = getattr(sol, name)
+        iterations = self.iterations  # read once: another chunk's thread may drop it
+        if sol.iterations is None:
+            self.iterations = None
+        elif iterations is not None:
+            iterations[index] = sol.iterations
+        assert sol.multipliers is not None  # from_form always certifies
+        self.multipliers.put(index, sol.multipliers)  # type: ignore[arg-type]
+
+    def solution(self, problem: TensionProblem, extras: dict[str, Any],
+                 setup_time: float, solve_time: float) -> TensionSolution:
+        """The solution of the whole batch (no form, as any chunked batch)."""
+        backend = self.plan.backend
+        return TensionSolution(
+            tensions=self.tensions, status=self.status, unique=self.unique,
+            iterations=self.iterations, setup_time=setup_time, solve_time=solve_time,
+            backend=backend.name, solver=backend.solver, solver_version=backend.version,
+            problem=problem, extras=extras, form=None, accuracy=self.plan.target,
+            multipliers=self.multipliers, **self.measures)
