@@ -80,7 +80,9 @@ def distribute(
         batch (a sequence carries on from one chunk to the next), save that
         ``solution.form`` is None (the problems of every pose would outweigh the
         tensions; :meth:`TensionProblem.standard_form` rebuilds those of any poses).
-        Invalid input in a later chunk raises when that chunk is reached.
+        Independent poses on the compiled closed form take one compiled pass per chunk
+        (:mod:`tension_opt.fused`; sums in another order: objective and residual to
+        rounding). Invalid input in a later chunk raises when that chunk is reached.
     **options
         Passed to the backend: ``accuracy`` (``"default"`` or ``"high"``), ``time_limit``
         (s), ``solver_options`` (a dict in the solver's own names), ``warm_start``,
@@ -167,7 +169,7 @@ def _distribute_chunks(robot: CableRobot, p: NDArray, problem: TensionProblem,
         except InvalidInputError as error:
             raise _renumbered(error, poses) from None
 
-    rows = any(np.ndim(getattr(problem, name)) == 2 for name in per_pose)  # (N, m), (1, m)
+    rows = any(np.ndim(getattr(problem, name)) == 2 for name in per_pose)  # bounds per pose
     plan = None if rows else certified_plan(robot, problem, backend)
     if plan is not None:
         batch = CertifiedBatch(plan, p, None if w_rows is None else w_rows(slice(None)))

@@ -16,7 +16,15 @@ arithmetic of a pose). The small functions a per-pose loop calls (geometry, the
 four-cable closed form, its checks, the scaling and the pivoting solve) are compiled
 ``inline="always"``: numba's call of a function taking arrays, and what it prevents
 the optimiser from seeing, cost more than their arithmetic (the study robot's
-per-pose loop ran twice as fast with them inlined).
+per-pose loop ran twice as fast with them inlined). They return once, at their end, and
+read each array argument last outside any branch (where the logic has a branch, the
+arrays are read once more after it): numba counts a reference to each array argument
+of an inlined function and releases it after the argument's last use, and LLVM's
+pruning of these counts gives up where a release sits in a branch or before one of
+several exits, leaving two atomic operations per array and call (they cost the study
+robot's certified closed form, :mod:`tension_opt.kernels.certified`, a third of its
+time). For the same reason a loop calls the compiled functions it does not inline
+itself, outside the inlined steps, and takes its arrays as arguments.
 
 - :mod:`tension_opt.kernels.geometry`: structure matrix and required wrench of every
   robot kind;

@@ -127,7 +127,7 @@ def _measured(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, T: NDArray, code
             d = T[i] - r[i]
             value += d * d * w[i]
     if (A.size | b.size | lb.size | ub.size | T.size | w.size | r.size | work.size) < 0:
-        value = np.nan  # never: the arrays read once more (see tension_opt.kernels.scaling)
+        value = np.nan  # never: the arrays read once more (see tension_opt.kernels)
     return residual, violation, value
 
 
@@ -216,7 +216,7 @@ def certified_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray
     m, n = int(data[1]), int(data[2])
     k, g = z.shape[1], mu.shape[1]
     # Work arrays, made once and handed to the loop as arguments (the loop then takes no
-    # new reference to any array: see tension_opt.kernels.scaling).
+    # new reference to any array: see tension_opt.kernels).
     work = (np.empty(n), np.empty(n), np.empty((n, m)), np.empty(n), np.empty(n),
             np.empty(m), np.empty(work_size(m, n)), np.empty(n), np.empty(k), np.empty(k),
             np.empty((n, k)), np.empty(n), np.empty((g, k)), np.empty(g), np.empty(k),
@@ -274,7 +274,7 @@ def _poses(data: NDArray, views: tuple[NDArray, ...], poses: NDArray, wrenches: 
             codes[p], left = CODE_GEOMETRY, left + 1
             continue
         # form_pose, its calls made here, out of the inlined steps (a call inside one
-        # keeps the reference counts of its arrays: see tension_opt.kernels.scaling).
+        # keeps the reference counts of its arrays: see tension_opt.kernels).
         status, once, infeas, settled, off = CODE_FALLBACK, True, np.nan, False, False
         ok = plain(A, b, lb, ub, q, c)
         if ok and four:

@@ -382,7 +382,7 @@ HUGE = 1e150
 def plain(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray
           ) -> bool:
     """Whether a pose's data are all of magnitude below :data:`HUGE` (bounds may be
-    infinite) and not NaN (one return: see tension_opt.kernels.scaling)."""
+    infinite) and not NaN (one return: see tension_opt.kernels)."""
     ok = True
     for i in range(A.shape[0]):
         ok = ok and abs(b[i]) < HUGE
@@ -464,14 +464,14 @@ def point4(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
         for i in range(4 if settled else 0):
             T[i] = work[9 + i] + t * work[13 + i]
     if (A.size | b.size | lb.size | ub.size | q.size | c.size | T.size | work.size) < 0:
-        settled = False  # never: the arrays read once more (tension_opt.kernels.scaling)
+        settled = False  # never: the arrays read once more (tension_opt.kernels)
     return settled, unique if settled else True, settled and infeasible
 
 
 @njit(cache=True, error_model="numpy")
 def point4_distance(lb: NDArray, ub: NDArray, work: NDArray) -> float:
     """Distance to feasibility (N) of a pose :func:`point4` found infeasible, on its line
-    (``work`` as it left it); a call kept out of the inlined step (see scaling)."""
+    (``work`` as it left it); a call kept out of the inlined step (see tension_opt.kernels)."""
     return infeasibility_1d(work[9:13], work[13:17], lb, ub, work[17:])
 
 

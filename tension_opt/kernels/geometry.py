@@ -54,7 +54,7 @@ def kind_code(kind: str) -> int:
 def rotation(kind: int, pose: NDArray) -> tuple[float, float, float, float, float, float,
                                                 float, float, float]:
     """Rotation matrix of a pose, row by row (identity if the kind does not rotate).
-    One return (see :mod:`tension_opt.kernels.scaling`)."""
+    One return (see :mod:`tension_opt.kernels`)."""
     R = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
     if kind == 2:
         c, s = math.cos(pose[2]), math.sin(pose[2])
@@ -73,7 +73,7 @@ def rotation(kind: int, pose: NDArray) -> tuple[float, float, float, float, floa
         R = (x2 - y2 - z2 + w2, 2.0 * (xy - zw), 2.0 * (xz + yw),
              2.0 * (xy + zw), -x2 + y2 - z2 + w2, 2.0 * (yz - xw),
              2.0 * (xz - yw), 2.0 * (yz + xw), -x2 - y2 + z2 + w2)
-    if pose.size < 0:  # never: the pose read after the branches (tension_opt.kernels.scaling)
+    if pose.size < 0:  # never: the pose read after the branches (tension_opt.kernels)
         R = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     return R
 
@@ -82,7 +82,7 @@ def rotation(kind: int, pose: NDArray) -> tuple[float, float, float, float, floa
 def _position(kind: int, pose: NDArray) -> tuple[float, float, float]:
     y = pose[1] if kind != 1 else 0.0
     z = pose[1] if kind == 1 else (0.0 if kind == 2 else pose[2])
-    return pose[0], y, z  # pose read last outside the branches (tension_opt.kernels.scaling)
+    return pose[0], y, z  # pose read last outside the branches (tension_opt.kernels)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -91,7 +91,7 @@ def _put(kind: int, M: NDArray, i: int, f0: float, f1: float, f2: float, f3: flo
     """Write the rows of a full wrench ``(f, m)`` that the kind keeps into column ``i``
     of ``M`` (rows x, y, z for point3; x, z for planar_point2; x, y, moment z for
     planar3; all six for spatial6). Row 0, x for every kind, is written last, outside
-    the branches (see :mod:`tension_opt.kernels.scaling`)."""
+    the branches (see :mod:`tension_opt.kernels`)."""
     if kind == 1:
         M[1, i] = f2
     elif kind == 2:

@@ -90,7 +90,7 @@ def pose_measures(P: NDArray, c: NDArray, Aeq: NDArray, beq: NDArray, G: NDArray
     relative = abs(gap) / _worst(1.0, abs(objective))
     if not solved:
         worst = stationarity = relative = np.nan
-    # One return (see tension_opt.kernels.scaling): the arrays' reference counts pruned.
+    # One return (see tension_opt.kernels): the arrays' reference counts pruned.
     return worst, stationarity, relative
 
 

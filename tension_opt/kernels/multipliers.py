@@ -53,7 +53,7 @@ def solve_small(H: NDArray, u: NDArray) -> bool:
         for j in range(col + 1, r):
             total -= H[col, j] * u[j]
         u[col] = total / H[col, col]
-    # One return (see tension_opt.kernels.scaling): the arrays' reference counts pruned.
+    # One return (see tension_opt.kernels): the arrays' reference counts pruned.
     return ok
 
 

@@ -12,13 +12,6 @@ share), so both agree to rounding.
 :mod:`tension_opt.kernels.dense_qp`); :func:`batch_scaling` runs it over a batch;
 :func:`pose_scaled` writes one pose's whole scaled problem (the certified closed form,
 :mod:`tension_opt.kernels.certified`).
-
-The one-pose functions, inlined into the loops that call them, return once, at their
-end, and read each array argument last outside any branch: numba counts a reference to
-each array argument of an inlined function and releases it after the argument's last
-use, and LLVM's pruning of these counts gives up where a release sits in a branch or
-before one of several exits, leaving two atomic operations per array and call (they
-cost the study robot's certified closed form about half its time).
 """
 
 from __future__ import annotations
@@ -49,7 +42,7 @@ def safe_norm_of(x: NDArray) -> float:
             r = v / top
             total += r * r
         norm = top * math.sqrt(total)
-    if x.size < 0:  # never: x read after the branch (see the module docstring)
+    if x.size < 0:  # never: x read after the branch (see tension_opt.kernels)
         norm = np.nan
     return norm
 
@@ -117,7 +110,7 @@ def pose_scaling(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c
         linear = max(linear, vmax)
     square = quadratic > 0.0
     if (A.size | b.size | lb.size | ub.size | q.size | c.size | rows.size) < 0:
-        s = np.nan  # never: the arrays read after the branches (see the module docstring)
+        s = np.nan  # never: the arrays read after the branches (tension_opt.kernels)
     return s, quadratic if square else (linear if linear > 0.0 else 1.0), square
 
 
@@ -160,7 +153,7 @@ def pose_scaled(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c:
     n, m = A.shape
     s, top, quadratic = pose_scaling(A, b, lb, ub, q, c, vmax, ub_share, row_floor, rows)
     per_s = s if quadratic else 1.0  # a QP's linear term also shrinks by s
-    # (Loops that run only where needed, rather than branches: see the module docstring.)
+    # (Loops that run only where needed, rather than branches: see tension_opt.kernels.)
     for i in range(m):
         lbs[i] = lb[i] / s
         ubs[i] = ub[i] / s
