@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from .common import CONVERGED, STATUS_DTYPE, FloatArray
 
 __all__ = ["all_converged", "all_true", "flat_arguments", "load_kernels", "new_result",
-           "run_cables", "serial_entry", "take"]
+           "run_cables", "take"]
 
 T = TypeVar("T")
 
@@ -54,18 +54,10 @@ def run_cables(name: str, n: int, *args: object, variant: str = "") -> int:
     if n >= kernels.PARALLEL_FROM and not _FORKED[0]:
         with _LAUNCH:
             return getattr(kernels, f"{name}_parallel")(*args)
-    return serial_entry(name, args, variant)(*args)
-
-
-def serial_entry(name: str, args: tuple[object, ...], variant: str = ""
-                 ) -> Callable[..., int]:
-    """The entry point (:func:`_entry`) of the serial kernel ``name`` for arguments of
-    the types of ``args``, made on the first call for each ``variant``; the contract of
-    :func:`run_cables` on the arguments holds."""
     entry = _ENTRIES.get(name + variant)
     if entry is None:
-        entry = _ENTRIES[name + variant] = _entry(getattr(load_kernels(), name), args)
-    return entry
+        entry = _ENTRIES[name + variant] = _entry(getattr(kernels, name), args)
+    return entry(*args)
 
 
 #: Entry points of the serial kernels, by name and variant (:func:`_entry`).
@@ -162,21 +154,20 @@ def take(a: FloatArray | float, idx: NDArray[np.intp]) -> FloatArray:
 
 def all_converged(n: int) -> NDArray[np.str_]:
     """A status array of ``n`` cables, all ``"converged"`` (a fresh copy)."""
-    row = _CONVERGED_ROW[0]
-    return (row if row.size >= n else _grown(_CONVERGED_ROW, n))[:n].copy()
+    return _fresh(_CONVERGED_ROW, n)
 
 
 def all_true(n: int) -> NDArray[np.bool_]:
     """A boolean array of ``n`` entries, all True (a fresh copy; ``np.ones`` costs
     several times as much for a few cables)."""
-    row = _TRUE_ROW[0]
-    return (row if row.size >= n else _grown(_TRUE_ROW, n))[:n].copy()
+    return _fresh(_TRUE_ROW, n)
 
 
-def _grown(store: list[NDArray[Any]], n: int) -> NDArray[Any]:
-    """The row kept in ``store`` (whose entries are all equal) grown, with the same
-    value, to at least ``n`` entries."""
+def _fresh(store: list[NDArray[Any]], n: int) -> NDArray[Any]:
+    """The first ``n`` entries of the row kept in ``store`` (whose entries are all
+    equal), copied; the row is grown, with the same value, when it is too short."""
     row = store[0]
-    row = np.full(max(n, 2 * row.size), row[0], dtype=row.dtype)
-    store[0] = row
-    return row
+    if row.size < n:
+        row = np.full(max(n, 2 * row.size), row[0], dtype=row.dtype)
+        store[0] = row
+    return row[:n].copy()

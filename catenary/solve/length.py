@@ -54,7 +54,6 @@ from .compiled import (
     load_kernels,
     new_result,
     run_cables,
-    serial_entry,
     take,
 )
 from .length_bracket import bracket_length, end_tension
@@ -332,8 +331,8 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
         # The usual call of a controller (a robot's cables), passed on as it is.
         shape, xf, zf, tf, wf, ef = x.shape, x, z, tension, w, EA  # type: ignore[union-attr]
         out, ints = np.empty((4, n)), np.empty((2, n), dtype=np.int64)
-        args = (end == "B", xf, zf, tf, wf, ef, float(rtol), int(max_iter), out, ints)
-        unsettled = serial_entry("solve_length_cables", args, ":numbers")(*args)
+        unsettled = run_cables("solve_length_cables", n, end == "B", xf, zf, tf, wf, ef,
+                               float(rtol), int(max_iter), out, ints, variant=":numbers")
         if not unsettled:
             return _all_converged(out, ints)
     else:
