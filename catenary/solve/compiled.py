@@ -18,17 +18,23 @@ from numpy.typing import ArrayLike, NDArray
 
 from .common import CONVERGED, STATUS_DTYPE, FloatArray
 
-__all__ = ["all_converged", "all_true", "flat_arguments", "load_kernels", "new_result",
-           "run_cables", "take"]
+__all__ = ["FEW_CABLES", "all_converged", "all_true", "flat_arguments", "load_kernels",
+           "new_result", "run_cables", "serial_entry", "take"]
 
 T = TypeVar("T")
 
 _KERNELS: list[ModuleType] = []
 _F64 = np.dtype(np.float64)
-#: Statuses of cables that all converged, copied from (grown on demand).
-_CONVERGED_ROW: list[NDArray[np.str_]] = [np.full(64, CONVERGED, dtype=STATUS_DTYPE)]
-#: ``True`` entries to copy ``converged`` masks from (grown on demand).
-_TRUE_ROW: list[NDArray[np.bool_]] = [np.ones(64, dtype=bool)]
+#: Calls of up to this many cables (a robot's) are served by the serial kernels, and
+#: their all-converged rows are copied from ready ones of their length.
+FEW_CABLES = 64
+#: Statuses of cables that all converged, copied from: one row per length up to
+#: ``FEW_CABLES`` (slicing a longer one costs a tenth of a microsecond), then one
+#: row grown on demand.
+_CONVERGED_ROW: list[NDArray[np.str_]] = [
+    np.full(n, CONVERGED, dtype=STATUS_DTYPE) for n in range(FEW_CABLES + 2)]
+#: ``True`` entries to copy ``converged`` masks from (as ``_CONVERGED_ROW``).
+_TRUE_ROW: list[NDArray[np.bool_]] = [np.ones(n, dtype=bool) for n in range(FEW_CABLES + 2)]
 
 
 #: One parallel launch at a time: numba's "workqueue" layer aborts the process on two
@@ -54,14 +60,22 @@ def run_cables(name: str, n: int, *args: object, variant: str = "") -> int:
     if n >= kernels.PARALLEL_FROM and not _FORKED[0]:
         with _LAUNCH:
             return getattr(kernels, f"{name}_parallel")(*args)
-    entry = _ENTRIES.get(name + variant)
-    if entry is None:
-        entry = _ENTRIES[name + variant] = _entry(getattr(kernels, name), args)
-    return entry(*args)
+    return serial_entry(name + variant, args)(*args)
 
 
 #: Entry points of the serial kernels, by name and variant (:func:`_entry`).
 _ENTRIES: dict[str, Callable[..., int]] = {}
+
+
+def serial_entry(key: str, args: tuple[object, ...]) -> Callable[..., int]:
+    """The entry point of the serial kernel named by ``key`` (its name, then its
+    variant: see :func:`run_cables`, whose contract ``args`` meets), compiled for the
+    types of ``args`` on the first call and kept."""
+    entry = _ENTRIES.get(key)
+    if entry is None:
+        kernel = getattr(load_kernels(), key.partition(":")[0])
+        entry = _ENTRIES[key] = _entry(kernel, args)
+    return entry
 
 
 def _entry(kernel: Any, args: tuple[object, ...]) -> Callable[..., int]:
@@ -154,20 +168,20 @@ def take(a: FloatArray | float, idx: NDArray[np.intp]) -> FloatArray:
 
 def all_converged(n: int) -> NDArray[np.str_]:
     """A status array of ``n`` cables, all ``"converged"`` (a fresh copy)."""
-    return _fresh(_CONVERGED_ROW, n)
+    return _CONVERGED_ROW[n].copy() if n <= FEW_CABLES else _fresh(_CONVERGED_ROW, n)
 
 
 def all_true(n: int) -> NDArray[np.bool_]:
     """A boolean array of ``n`` entries, all True (a fresh copy; ``np.ones`` costs
     several times as much for a few cables)."""
-    return _fresh(_TRUE_ROW, n)
+    return _TRUE_ROW[n].copy() if n <= FEW_CABLES else _fresh(_TRUE_ROW, n)
 
 
 def _fresh(store: list[NDArray[Any]], n: int) -> NDArray[Any]:
-    """The first ``n`` entries of the row kept in ``store`` (whose entries are all
+    """The first ``n`` entries of the last row kept in ``store`` (whose entries are all
     equal), copied; the row is grown, with the same value, when it is too short."""
-    row = store[0]
+    row = store[-1]
     if row.size < n:
         row = np.full(max(n, 2 * row.size), row[0], dtype=row.dtype)
-        store[0] = row
+        store[-1] = row
     return row[:n].copy()

@@ -48,12 +48,14 @@ from .common import (
     status_array,
 )
 from .compiled import (
+    FEW_CABLES,
     all_converged,
     all_true,
     flat_arguments,
     load_kernels,
     new_result,
     run_cables,
+    serial_entry,
     take,
 )
 from .length_bracket import bracket_length, end_tension
@@ -325,16 +327,23 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
     """:func:`solve_length` for ``end`` "B" or "A" through the compiled kernel, the
     cables it leaves by :func:`_solve_length_flat`; None where the numpy path must
     decide for the whole call (invalid data, shapes that do not broadcast, no cable)."""
-    kernels = load_kernels()
     n = _cable_vectors(x, z, tension, w, EA)
-    if 0 < n < kernels.PARALLEL_FROM:
-        # The usual call of a controller (a robot's cables), passed on as it is.
-        shape, xf, zf, tf, wf, ef = x.shape, x, z, tension, w, EA  # type: ignore[union-attr]
+    if 0 < n <= FEW_CABLES:
+        # The usual call of a controller (a robot's cables), passed on as it is to the
+        # serial kernel's entry point (through run_cables, its dispatch costs as much as
+        # the work for a cable).
         out, ints = np.empty((4, n)), np.empty((2, n), dtype=np.int64)
-        unsettled = run_cables("solve_length_cables", n, end == "B", xf, zf, tf, wf, ef,
-                               float(rtol), int(max_iter), out, ints, variant=":numbers")
+        args = (end == "B", x, z, tension, w, EA, float(rtol), int(max_iter), out, ints)
+        unsettled = serial_entry(_VECTORS_AND_NUMBERS, args)(*args)
         if not unsettled:
-            return _all_converged(out, ints)
+            result = object.__new__(LengthResult)  # field by field: see new_result
+            fields = result.__dict__
+            fields["H"], fields["V_B"], fields["V_A"], fields["L0"] = (out[0], out[1],
+                                                                       out[2], out[3])
+            fields["iterations"], fields["converged"], fields["status"] = (
+                ints[1], all_true(n), all_converged(n))
+            return result
+        shape, xf, zf, tf, wf, ef = (n,), x, z, tension, w, EA
     else:
         flat = flat_arguments(x, z, tension, w, EA)
         if flat is None:
@@ -344,6 +353,7 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
         unsettled = run_cables("solve_length_cables", n, end == "B", xf, zf, tf, wf, ef,
                                float(rtol), int(max_iter), out, ints)
     if unsettled:
+        kernels = load_kernels()
         codes = ints[0]
         if np.any(codes == kernels.INVALID):
             return None  # the numpy checks raise the package's error
@@ -369,21 +379,11 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
                       converged=converged, status=status, L0=L0)
 
 
-def _all_converged(out: FloatArray, ints: NDArray[np.int64]) -> LengthResult:
-    """The result of cables the kernel all settled, ``out`` (4, n) and ``ints`` (2, n)
-    as it wrote them, built field by field (:func:`new_result`, without the cost of
-    keyword arguments: as much as the kernel's work for a cable)."""
-    n = out.shape[1]
-    result = object.__new__(LengthResult)
-    fields = result.__dict__
-    fields["H"], fields["V_B"], fields["V_A"], fields["L0"] = out[0], out[1], out[2], out[3]
-    fields["iterations"], fields["converged"], fields["status"] = (
-        ints[1], all_true(n), all_converged(n))
-    return result
-
-
+#: The serial length kernel's variant for float64 vectors and numbers ``w``, ``EA``.
+_VECTORS_AND_NUMBERS = "solve_length_cables:numbers"
 _F64 = np.dtype(np.float64)
 _ARRAY = np.ndarray
+_ONE_FLOAT = (8,)
 
 
 def _cable_vectors(x: ArrayLike, z: ArrayLike, tension: ArrayLike, w: ArrayLike,
@@ -394,9 +394,9 @@ def _cable_vectors(x: ArrayLike, z: ArrayLike, tension: ArrayLike, w: ArrayLike,
     if not (type(x) is _ARRAY and type(z) is _ARRAY and type(tension) is _ARRAY
             and isinstance(w, float) and isinstance(EA, float)):
         return 0
+    # Strides of one float64 make a contiguous vector (cheaper to read than flags).
     if not (x.dtype is _F64 and z.dtype is _F64 and tension.dtype is _F64  # type: ignore[union-attr]
-            and x.ndim == 1 and x.shape == z.shape == tension.shape  # type: ignore[union-attr]
-            and x.flags.c_contiguous and z.flags.c_contiguous  # type: ignore[union-attr]
-            and tension.flags.c_contiguous):  # type: ignore[union-attr]
+            and x.strides == z.strides == tension.strides == _ONE_FLOAT):  # type: ignore[union-attr]
         return 0
-    return x.shape[0]  # type: ignore[union-attr]
+    n = x.shape[0]  # type: ignore[union-attr]
+    return n if z.shape[0] == n and tension.shape[0] == n else 0  # type: ignore[union-attr]

@@ -12,7 +12,7 @@ import catenary
 import tension_opt as to
 from catenary.elastic import axial_compliance, evaluate
 from catenary.realtime import solve_forces_compiled, solve_length_compiled
-from catenary.solve import kernels
+from catenary.solve import compiled, kernels
 
 SETTINGS = settings(max_examples=40, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
@@ -131,16 +131,25 @@ def test_vectors_with_numbers_match_the_general_call(end):
     arrays (the general path), cables the kernel leaves included."""
     x, z, T, _, _ = random_cables(11, 300)
     seen: set[str] = set()
+    few = compiled.FEW_CABLES
     for w, EA in ((1.0, np.inf), (20.0, 1e5), (np.float64(0.3), 1e8), (0.0, np.inf)):
-        got = catenary.solve_length(x, z, T, w, EA, end=end)
         ref = catenary.solve_length(x, z, T, np.full(x.size, w), np.full(x.size, EA),
                                     end=end)
-        for name in ("H", "V_A", "V_B", "L0", "iterations", "converged", "status"):
-            np.testing.assert_array_equal(getattr(got, name), getattr(ref, name))
-        seen.update(got.status.tolist())
+        for size in (1, 4, few, few + 1, x.size):  # the direct call up to FEW_CABLES
+            got = catenary.solve_length(x[:size], z[:size], T[:size], w, EA, end=end)
+            for name in ("H", "V_A", "V_B", "L0", "iterations", "converged", "status"):
+                np.testing.assert_array_equal(getattr(got, name), getattr(ref, name)[:size])
+            seen.update(got.status.tolist())
         strided = catenary.solve_length(x[::2], z[::2], T[::2], w, EA, end=end)
         np.testing.assert_array_equal(strided.L0, ref.L0[::2])
     assert {"converged", "infeasible"} <= seen
+    # Every call's arrays are its own, the all-converged rows too.
+    first = catenary.solve_length(x[:4], z[:4], 1e5 + T[:4], 1.0, np.inf, end=end)
+    assert first.converged.all()
+    first.status[:] = "changed"
+    first.converged[:] = False
+    second = catenary.solve_length(x[:4], z[:4], 1e5 + T[:4], 1.0, np.inf, end=end)
+    assert second.converged.all() and (second.status == "converged").all()
 
 
 def forces_scale(ref, chord, L0):
