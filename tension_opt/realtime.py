@@ -11,7 +11,8 @@ the last answer of a stream) so that a call costs one compiled call and little e
 - ``backend="qpsolvers:daqp"`` with a quadratic objective (min-norm, pseudo-inverse,
   centred, or any smoothed pose) builds the scaled dense QP in compiled code, keeps a
   DAQP model per thread warm-started from the previous pose, and certifies DAQP's
-  answer with its own multipliers (:mod:`tension_opt.kernels.dense_qp`).
+  answer with its own multipliers (:mod:`tension_opt.kernels.dense_qp`); a smoothed
+  stream given as a batch runs pose by pose through it.
 - Poses these cannot settle (singular or badly conditioned structure matrices, a
   cable on its drawing point, an infeasible pose or an uncertified answer of DAQP) and
   every other problem or backend go through :func:`tension_opt.distribute`, so the
@@ -313,13 +314,39 @@ class Distributor:
               previous: ArrayLike | None) -> RealtimeResult:
         """A batch: in parallel when poses are independent, in order for a stream."""
         independent = previous is not None and np.ndim(previous) == 2
-        if self._data is None or self._daqp is not None:
+        stream = self._sequential and not independent
+        if self._data is None or (self._daqp is not None and not stream):
             prev = previous if independent else self._stream_start(previous)
             return self._numpy(p, wrench, prev, np.arange(len(p)), None)
         w = self._wrenches(len(p), wrench)
-        if self._sequential and not independent:
+        if self._daqp is not None:
+            return self._daqp_stream(p, w, wrench, previous)
+        if stream:
             return self._sequence(p, w, wrench, self._stream_start(previous))
         return self._batch(p, w, wrench, previous if independent else None)
+
+    def _daqp_stream(self, p: NDArray, w: NDArray, wrench: ArrayLike | None,
+                     previous: ArrayLike | None) -> RealtimeResult:
+        """A stream on the compiled DAQP path: pose by pose, in order, each answered as
+        a call with that pose alone would answer it (smoothed against the last optimal
+        answer, the first one against ``previous`` or the stream's last). Each pose
+        costs one compiled call; through :func:`distribute` a sequence of poses on
+        DAQP goes through the whole per-pose pipeline instead."""
+        N, m = len(p), self._m
+        if previous is not None:
+            self._local.last = self._stream_start(previous)  # checked, then streamed
+        poses = np.ascontiguousarray(p)
+        rows = np.ascontiguousarray(np.broadcast_to(w, (N, w.shape[1])))
+        T = np.empty((N, m))
+        status = np.empty(N, dtype=STATUS_DTYPE)
+        unique, compiled = np.empty(N, dtype=bool), np.empty(N, dtype=bool)
+        residual, infeasibility = np.empty(N), np.empty(N)
+        for k in range(N):
+            one = self._one(poses[k], rows[k], None if wrench is None else rows[k], None)
+            T[k], status[k], unique[k] = one.tensions, one.status.value, one.unique
+            residual[k], infeasibility[k], compiled[k] = (one.residual, one.infeasibility,
+                                                          one.compiled)
+        return RealtimeResult(T, status, unique, residual, infeasibility, compiled)
 
     def _wrenches(self, N: int, wrench: ArrayLike | None) -> NDArray:
         """External wrenches (N, n) of a batch, or (1, n) for one for every pose."""

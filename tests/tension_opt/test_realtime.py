@@ -290,6 +290,42 @@ def test_daqp_path_on_the_study_robot_and_cogiro_with_a_stream():
             np.testing.assert_allclose(row.tensions, reference.tensions[k], rtol=1e-7)
 
 
+def test_a_daqp_stream_in_one_call_answers_as_its_poses_one_by_one():
+    """A batch of a smoothed stream on the compiled DAQP path runs its poses in order
+    through the compiled call: the same answers, bit for bit, as calling the poses one
+    by one, a stream that goes on after it, and ``previous`` and wrenches as given."""
+    problem = to.TensionProblem("min_sum", smoothing=1e-2)
+    for robot in (presets.algae_harvester(), presets.cogiro()):
+        t = np.linspace(0, 1, 40)
+        path = robot.default_home() + np.column_stack(
+            [2 * np.sin(3 * t), np.cos(2 * t) - 1, 0 * t] + [0 * t] * (robot.dof - 3))
+        wrench = np.zeros((len(path), robot.dof))
+        wrench[:, 0] = 50.0 * np.sin(5 * t)
+        reference = to.distribute(robot, path, problem, "qpsolvers:daqp", wrench=wrench)
+        one_by_one = to.Distributor(robot, problem, "qpsolvers:daqp")
+        rows = [one_by_one(pose, wrench=w) for pose, w in zip(path, wrench, strict=True)]
+        batch = to.Distributor(robot, problem, "qpsolvers:daqp")
+        got = batch(path, wrench=wrench)
+        np.testing.assert_array_equal(got.tensions, [row.tensions for row in rows])
+        assert [str(s) for s in got.status] == [row.status.value for row in rows]
+        np.testing.assert_array_equal(got.compiled, [row.compiled for row in rows])
+        np.testing.assert_array_equal(got.residual, [row.residual for row in rows])
+        assert not got.compiled[0] and got.compiled[1:].all()  # the first pose is an LP
+        np.testing.assert_array_equal(got.status, reference.status)
+        np.testing.assert_allclose(got.tensions, reference.tensions, rtol=1e-7)
+        # The stream goes on from the batch's last answer, as after single calls.
+        np.testing.assert_array_equal(batch(path[0]).tensions, one_by_one(path[0]).tensions)
+        # A given start: every pose smoothed, the first against it.
+        start = reference.tensions[-1]
+        fresh = to.Distributor(robot, problem, "qpsolvers:daqp")
+        from_start = fresh(path, previous=start)
+        assert from_start.compiled.all()
+        expected = to.distribute(robot, path, problem, "qpsolvers:daqp", previous=start)
+        np.testing.assert_allclose(from_start.tensions, expected.tensions, rtol=1e-7)
+        with pytest.raises(to.InvalidInputError, match="previous"):
+            fresh(path, previous=start[:-1])
+
+
 def test_one_instance_shared_by_threads_answers_as_alone(in_threads):
     robot = presets.cogiro()
     p = poses_of(robot, 7, 200)
