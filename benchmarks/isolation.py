@@ -129,9 +129,9 @@ def load_compiled_kernels() -> None:
         # A batch of more than one chunk: the certified pass of tension_opt.fused.
         many = np.repeat(home[None], CHUNK_SIZE + 1, axis=0)
         to.distribute(robot, many, "min_sum", "closed_form")
-        # A smoothed sequence's compiled loop (one compilation serves every robot).
-        to.distribute(robot, np.stack([home, home]), to.TensionProblem("min_sum", smoothing=1e-3),
-                      "closed_form")
+        # A smoothed sequence's compiled loops (one compilation serves every robot).
+        smoothed = to.TensionProblem("min_sum", smoothing=1e-3)
+        to.distribute(robot, np.stack([home, home]), smoothed, "closed_form")
         catenary.inverse_kinematics(robot, home, model="thesis")
         # The generic backends' scaling and certificate kernels (and DAQP's C path).
         generic = [b for b in ("scipy:highs", "qpsolvers:daqp") if b in available]
@@ -139,6 +139,7 @@ def load_compiled_kernels() -> None:
             to.distribute(robot, home, "min_sum", backend)
         if "qpsolvers:daqp" in available:
             to.Distributor(robot, "min_norm", "qpsolvers:daqp")(home)
+            to.distribute(robot, np.stack([home, home]), smoothed, "qpsolvers:daqp")
     for end in ("B", "A"):
         catenary.solve_length(10.0, -2.0, 500.0, 2.0, EA=1e6, end=end)
         # Vectors with numbers for w and EA: the kernel's variant for a robot's cables.

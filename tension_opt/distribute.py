@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tension_opt.backends.base import MAX_ERRORS, Backend, RawResult
+from tension_opt.backends.base import MAX_ERRORS, Backend, RawResult, SequenceRun
 from tension_opt.backends.registry import (
     AUTO_ORDER,
     available_backends,
@@ -480,16 +480,17 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
     extras: dict[str, Any] = {}
     setup = solve = 0.0
     last = previous
-    base = _compiled_sequence(backend, problem, unsmoothed, robot, A, b, previous)
+    base = _compiled_sequence(backend, problem, unsmoothed, robot, A, b, previous, options)
     rates = _rates(problem, m)
     k = 0
     while k < N:
         if base is not None:
             held = np.full(m, np.nan) if last is None else np.array(last, dtype=float)
             t0 = time.perf_counter()
-            stop = backend.solve_sequence(  # type: ignore[attr-defined]
+            stop = backend.solve_sequence(
                 base, problem.smoothing, rates, held, k,
-                (tensions, status, unique, infeasibility))
+                SequenceRun(tensions, status, unique, infeasibility, iterations, extras),
+                options)
             solve += time.perf_counter() - t0
             _smoothed_against(used, tensions, status, k, stop, last)
             last = held if np.isfinite(held).all() else last
@@ -530,14 +531,13 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
 
 
 def _compiled_sequence(backend: Backend, problem: TensionProblem, unsmoothed: TensionProblem,
-                       robot: CableRobot, A: NDArray, b: NDArray,
-                       previous: NDArray | None) -> StandardForm | None:
-    """The unsmoothed forms of every pose, where the compiled closed form runs the
-    sequence (:meth:`ClosedFormBackend.solve_sequence`), else None (also for previous
-    tensions that are not m finite numbers: the pose-by-pose path names the error)."""
-    from tension_opt.backends.closed_form import ClosedFormBackend
-
-    if not (isinstance(backend, ClosedFormBackend) and backend.compiled):
+                       robot: CableRobot, A: NDArray, b: NDArray, previous: NDArray | None,
+                       options: dict[str, Any]) -> StandardForm | None:
+    """The unsmoothed forms of every pose, where the backend runs the sequence in a
+    compiled loop (:meth:`Backend.solve_sequence`: the compiled closed form, DAQP),
+    else None (also for previous tensions that are not m finite numbers: the
+    pose-by-pose path names the error)."""
+    if not backend.runs_sequences(options):
         return None
     if previous is not None and not (np.shape(previous) == (robot.m,)
                                      and np.isfinite(previous).all()):

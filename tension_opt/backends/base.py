@@ -67,6 +67,19 @@ class RawResult:
     multipliers: Multipliers | None = None
 
 
+@dataclass
+class SequenceRun:
+    """The raw results of a smoothed or rate-limited sequence of N poses, which a
+    backend's compiled run (:meth:`Backend.solve_sequence`) writes pose by pose."""
+
+    tensions: NDArray
+    status: NDArray
+    unique: NDArray
+    infeasibility: NDArray
+    iterations: NDArray | None
+    extras: dict[str, Any]
+
+
 class Backend:
     """A way of solving :class:`~tension_opt.problems.StandardForm` batches.
 
@@ -188,6 +201,43 @@ class Backend:
 
     def solve_stage(self, form: StandardForm, **options: Any) -> RawResult:
         """Solve one stage (no tie-break). Generic backends override this."""
+        raise NotImplementedError
+
+    def runs_sequences(self, options: Mapping[str, Any]) -> bool:
+        """Whether :meth:`solve_sequence` runs the poses of a smoothed or rate-limited
+        sequence in one compiled loop with these options (else each pose is solved on
+        its own form by :meth:`solve`)."""
+        return False
+
+    def solve_sequence(self, base: StandardForm, smoothing: float, rate: NDArray,
+                       last: NDArray, start: int, run: SequenceRun,
+                       options: Mapping[str, Any]) -> int:
+        """Poses ``start, start + 1, ...`` of a smoothed or rate-limited sequence in one
+        compiled loop, each as :meth:`solve` would solve its one-pose form.
+
+        Parameters
+        ----------
+        base : StandardForm
+            The unsmoothed forms of all N poses (no min-max term, no extra rows).
+        smoothing : float
+            The problem's smoothing weight.
+        rate : ndarray, shape (m,)
+            Rate limit per cable (N), ``inf`` where none.
+        last : ndarray, shape (m,)
+            Tensions (N) the first pose is smoothed against (NaN: none); takes those of
+            each pose reported optimal, in place.
+        start : int
+        run : SequenceRun
+            Raw results, written for the poses solved.
+        options : mapping
+            The call's backend options.
+
+        Returns
+        -------
+        int
+            The first pose left to :meth:`solve` on its own form (one the loop does not
+            settle), or N.
+        """
         raise NotImplementedError
 
     # ------------------------------------------------------------ solver options

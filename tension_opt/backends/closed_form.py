@@ -12,13 +12,14 @@ null-space pieces shared with the capacity margin live in :mod:`tension_opt.null
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from tension_opt.backends import lowdim
-from tension_opt.backends.base import Backend, RawResult
+from tension_opt.backends.base import Backend, RawResult, SequenceRun
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.nullspace import RANK_TOL, min_of_max_lines, pinv_and_null, solution_set
 from tension_opt.problems import StandardForm
@@ -85,36 +86,18 @@ class ClosedFormBackend(Backend):
         elapsed = time.perf_counter() - t0
         return RawResult(T, status, np.zeros(form.N, dtype=int), 0.0, elapsed, unique, infeas)
 
+    def runs_sequences(self, options: Mapping[str, Any]) -> bool:
+        return self.compiled
+
     def solve_sequence(self, base: StandardForm, smoothing: float, rate: NDArray,
-                       last: NDArray, start: int, out: tuple[NDArray, NDArray, NDArray, NDArray]
-                       ) -> int:
-        """Poses ``start, start + 1, ...`` of a smoothed or rate-limited sequence by the
-        compiled kernel, each as its one-pose form would be solved by :meth:`solve`.
-
-        Parameters
-        ----------
-        base : StandardForm
-            The unsmoothed forms of all N poses (no min-max term, no extra rows).
-        smoothing : float
-            The problem's smoothing weight.
-        rate : ndarray, shape (m,)
-            Rate limit per cable (N), ``inf`` where none.
-        last : ndarray, shape (m,)
-            Tensions (N) the first pose is smoothed against (NaN: none); takes those of
-            each pose reported optimal, in place.
-        start : int
-        out : (tensions (N, m), status (N,), unique (N,), infeasibility (N,))
-            Raw results, written for the poses solved.
-
-        Returns
-        -------
-        int
-            The first pose left to :meth:`solve` on its own form (one this kernel
-            does not settle), or N.
-        """
+                       last: NDArray, start: int, run: SequenceRun,
+                       options: Mapping[str, Any]) -> int:
+        """:meth:`Backend.solve_sequence` by the compiled kernel
+        (:func:`~tension_opt.kernels.closed_form.solve_forms_sequence`); iterations
+        stay 0, as :meth:`solve` reports them."""
         from tension_opt.kernels import closed_form
 
-        T, status, unique, infeas = out
+        T, status, unique, infeas = run.tensions, run.status, run.unique, run.infeasibility
         info, codes = np.empty((base.N, 2)), np.zeros(base.N, dtype=np.int64)
         arrays = [np.ascontiguousarray(x, dtype=float)
                   for x in (base.A, base.b, base.lb, base.ub, base.q, base.c)]

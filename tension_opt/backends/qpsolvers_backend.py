@@ -18,16 +18,17 @@ from numpy.typing import NDArray
 from tension_opt.backends.base import (
     Backend,
     RawResult,
+    SequenceRun,
     note_error,
     pose_loop_result,
     quiet_solvers,
 )
 from tension_opt.backends.dense import DenseBatch, dense_batch
 from tension_opt.backends.settings import solver_options
-from tension_opt.certificate import Multipliers
+from tension_opt.certificate import Multipliers, accuracy_target
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.problems import StandardForm
-from tension_opt.solution import Status
+from tension_opt.solution import FEASIBILITY_TOL, Status
 
 try:
     import qpsolvers
@@ -151,6 +152,54 @@ class QpsolversBackend(Backend):
             if self._solver == "daqp":
                 return self._solve_daqp(batch, settings, warm, setup)
             return self._solve_generic(batch, settings, warm, setup)
+
+    def runs_sequences(self, options: Mapping[str, Any]) -> bool:
+        """DAQP runs the smoothed poses of a sequence in compiled code where its C
+        solver can be called from there (:mod:`tension_opt.kernels.daqp_native`)."""
+        if self._solver != "daqp":
+            return False
+        from tension_opt.kernels import daqp_native
+
+        return daqp_native.load() is not None
+
+    def solve_sequence(self, base: StandardForm, smoothing: float, rate: NDArray,
+                       last: NDArray, start: int, run: SequenceRun,
+                       options: Mapping[str, Any]) -> int:
+        """:meth:`Backend.solve_sequence` through DAQP's C solver called from compiled
+        code (:func:`tension_opt.kernels.dense_qp.solve_sequence`): each smoothed pose's
+        QP is the one :meth:`solve_stage` builds for its one-pose form, solved cold and
+        optimal only where DAQP's answer is certified with its own multipliers (and
+        within the feasibility tolerance); an LP (a pose with nothing to smooth
+        against, a rate limit alone) and any pose the loop does not certify go back to
+        :meth:`solve`, which then reports what it finds."""
+        from tension_opt.kernels import dense_qp
+
+        self.check_solver_options(options)
+        settings = solver_options(self._solver, options.get("accuracy"),
+                                  options.get("time_limit"), options.get("solver_options"))
+        structs = _native_structs(settings)
+        if structs is None:
+            return start
+        target = accuracy_target(options.get("accuracy"))
+        N, m, n = base.N, base.m, base.n
+        floats = np.zeros(dense_qp.qp_size(m, n) + 7 * m + 2 * n)
+        sense = np.zeros(m + n, dtype=c_int)
+        sense[m:] = 5  # the equations
+        counts = np.zeros(N, dtype=np.int64)
+        arrays = [np.ascontiguousarray(x, dtype=float)
+                  for x in (base.A, base.b, base.lb, base.ub, base.q, base.c)]
+        stop = int(dense_qp.solve_sequence(
+            *arrays, float(smoothing), np.ascontiguousarray(rate, dtype=float),
+            max(FEASIBILITY_TOL, 10.0 * target), target, last,
+            bool(np.isfinite(last).all()), run.tensions, counts, start, floats, sense,
+            structs))
+        if stop > start:
+            done = slice(start, stop)
+            run.status[done], run.unique[done] = Status.OPTIMAL, True
+            if run.iterations is not None:
+                run.iterations[done] = counts[done]
+            run.extras["accuracy_target"] = target  # as each pose's solve reports it
+        return stop
 
     def _solve_generic(self, batch: DenseBatch, settings: dict[str, Any], warm: bool,
                        setup: float) -> RawResult:

@@ -42,7 +42,8 @@ from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
 from tension_opt.kernels.scaling import pose_scaling
 from tension_opt.problems import ROW_FLOOR, UB_SHARE
 
-__all__ = ["BIG", "DaqpPose", "qp_judge", "qp_problem", "qp_size", "qp_views", "solve_pose"]
+__all__ = ["BIG", "DaqpPose", "qp_build", "qp_judge", "qp_problem", "qp_size", "qp_verdict",
+           "qp_views", "solve_pose", "solve_sequence"]
 
 #: DAQP's infinity.
 BIG = 1e30
@@ -94,20 +95,30 @@ def qp_problem(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
         return CODE_FALLBACK, np.nan
     form_terms(terms[0], terms[1], terms[3], terms[4], data[5], terms[5], prev, has_prev,
            q, c, lb, ub)
-    rows = work[o + 4 * m:o + 4 * m + n]
+    return qp_build(A, b, q, c, lb, ub, work[o + 4 * m:o + 4 * m + n], H, f, Ad, upper,
+                    lower)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def qp_build(A: NDArray, b: NDArray, q: NDArray, c: NDArray, lb: NDArray, ub: NDArray,
+             rows: NDArray, H: NDArray, f: NDArray, Ad: NDArray, upper: NDArray,
+             lower: NDArray) -> tuple[int, float]:
+    """The scaled QP of a pose's form (``A`` (n, m), ``b`` (n,), ``q, c, lb, ub``
+    (m,)) written into DAQP's arrays (:func:`qp_views`; ``rows`` (n,) gets the rows'
+    factors); ``(code, scale)`` as :func:`qp_problem`."""
+    n, m = A.shape
     s, top, quadratic = pose_scaling(A, b, lb, ub, q, c, 0.0, UB_SHARE, ROW_FLOOR, rows)
-    if not quadratic:
-        return CODE_FALLBACK, np.nan
-    for i in range(m):
+    # (Loops that run only for a QP, and one return: see tension_opt.kernels.)
+    for i in range(m if quadratic else 0):
         H[i, i] = q[i] / top
         f[i] = c[i] / top / s
         upper[i] = min(ub[i] / s, BIG)
         lower[i] = max(lb[i] / s, -BIG)
-    for k in range(n):
+    for k in range(n if quadratic else 0):
         for i in range(m):
             Ad[k, i] = A[k, i] * rows[k]
         upper[m + k] = lower[m + k] = b[k] * rows[k] / s
-    return 0, s
+    return (0 if quadratic else CODE_FALLBACK), (s if quadratic else np.nan)
 
 
 @njit(cache=True)
@@ -145,11 +156,22 @@ def qp_judge(data: NDArray, work: NDArray, qp: NDArray, x: NDArray, lam: NDArray
     b = work[n * m:n * m + n]
     o = n * m + n
     lb, ub = work[o + 2 * m:o + 3 * m], work[o + 3 * m:o + 4 * m]
+    return qp_verdict(A, b, lb, ub, data[6], H, f, Ad, upper, x, lam, s, target, T)
+
+
+@njit(cache=True, error_model="numpy")
+def qp_verdict(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, tol_factor: float,
+               H: NDArray, f: NDArray, Ad: NDArray, upper: NDArray, x: NDArray,
+               lam: NDArray, s: float, target: float, T: NDArray) -> tuple[int, float]:
+    """:func:`qp_judge` of a pose's form (``A``, ``b``, ``lb``, ``ub``; ``tol_factor``
+    the feasibility tolerance's factor of the packed problem) and its QP (``H``, ``f``,
+    ``Ad``, ``upper``, :func:`qp_views`), without the working set."""
+    n, m = A.shape
     for i in range(m):
         if not (math.isfinite(x[i]) and math.isfinite(lam[i])):
             return CODE_FALLBACK, np.nan
         T[i] = x[i] * s
-    code, res = judge(A, b, lb, ub, T, data[6] * pose_scales(A, b, lb)[1])
+    code, res = judge(A, b, lb, ub, T, tol_factor * pose_scales(A, b, lb)[1])
     if code != 0:
         return CODE_FALLBACK, res
     primal = dual = 0.0
@@ -228,6 +250,87 @@ def solve_pose(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray, has
         return CODE_FALLBACK, np.nan, iterations
     code, res = qp_judge(data, work, qp, x, lam, s, target, T, sense, warm)
     return code, res, iterations
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def solve_sequence(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0: NDArray,
+                   c0: NDArray, smoothing: float, rate: NDArray, tol_factor: float,
+                   target: float, last: NDArray, has_last: bool, T: NDArray,
+                   iterations: NDArray, start: int, floats: NDArray, sense: NDArray,
+                   structs: NDArray) -> int:
+    """Poses ``start, start + 1, ...`` of a smoothed sequence through DAQP's C solver,
+    each as the ``qpsolvers:daqp`` backend solves its one-pose form.
+
+    Each pose's form is smoothed against ``last`` (``form_terms``, as
+    :func:`tension_opt.kernels.closed_form.solve_forms_sequence` does), scaled and laid
+    out as :func:`qp_problem` does, solved cold (as a batch of one pose starts), and
+    judged by :func:`qp_verdict`; ``last`` then takes its tensions. The run stops at the
+    first pose this does not settle (an LP, data that are not finite, DAQP without a
+    solution, an answer the verdict does not certify), for the backend to solve on its
+    own form, and returns its index (N when done).
+
+    Parameters
+    ----------
+    A : ndarray, shape (N, n, m)
+    b : ndarray, shape (N, n)
+    lb0, ub0, q0, c0 : ndarray, shape (N, m)
+        The unsmoothed forms of the poses.
+    smoothing : float
+    rate : ndarray, shape (m,)
+        Rate limits (N), ``inf`` where none.
+    tol_factor, target : float
+        Feasibility tolerance factor and accuracy target (:func:`qp_verdict`).
+    last : ndarray, shape (m,)
+        Tensions (N) the first pose is smoothed against (read where ``has_last``),
+        written with each certified pose's.
+    T : ndarray, shape (N, m)
+        Tensions (N), written for the poses settled.
+    iterations : ndarray of int64, shape (N,)
+        DAQP's iterations, written for the poses settled.
+    floats : ndarray
+        Zeros: ``qp_size(m, n) + 7 m + 2 n`` floats (DAQP's arrays, solution and
+        multipliers, then the pose's terms and row factors).
+    sense : ndarray of int32, shape (m + n,)
+        DAQP's constraint types: bounds free (0), equations 5.
+    structs : ndarray of int64
+        :func:`~tension_opt.kernels.daqp_native.struct_buffer`'s array.
+    """
+    N, n, m = A.shape
+    size = qp_size(m, n)
+    qp, x, lam = floats[:size], floats[size:size + m], floats[size + m:size + 2 * m + n]
+    o = size + 2 * m + n
+    q, c, lb, ub = floats[o:o + m], floats[o + m:o + 2 * m], floats[o + 2 * m:o + 3 * m], \
+        floats[o + 3 * m:o + 4 * m]
+    rows = floats[o + 4 * m:o + 4 * m + n]
+    H, f, Ad, upper, lower = qp_views(qp, m, n)
+    for k in range(start, N):
+        form_terms(q0[k], c0[k], lb0[k], ub0[k], smoothing, rate, last, has_last, q, c, lb,
+                   ub)
+        finite = True
+        for i in range(m):
+            finite = finite and math.isfinite(q[i]) and math.isfinite(c[i]) \
+                and not (math.isnan(lb[i]) or math.isnan(ub[i]))
+            for j in range(n):
+                finite = finite and math.isfinite(A[k, j, i])
+        for j in range(n):
+            finite = finite and math.isfinite(b[k, j])
+        if not finite:
+            return k
+        code, s = qp_build(A[k], b[k], q, c, lb, ub, rows, H, f, Ad, upper, lower)
+        if code:
+            return k
+        sense[:m] = 0  # cold, as a batch of one pose starts
+        flag, count = daqp_native.quadprog(H, f, Ad, upper, lower, sense, x, lam, structs)
+        if flag <= 0:
+            return k
+        code, _ = qp_verdict(A[k], b[k], lb, ub, tol_factor, H, f, Ad, upper, x, lam, s,
+                             target, T[k])
+        if code:
+            return k
+        iterations[k] = count
+        last[:] = T[k]
+        has_last = True
+    return N
 
 
 class DaqpPose:

@@ -22,6 +22,7 @@ from hypothesis import strategies as st
 import tension_opt as to
 from tension_opt import presets
 from tension_opt.backends.closed_form import ClosedFormBackend
+from tension_opt.backends.qpsolvers_backend import QpsolversBackend
 from tension_opt.kernels import closed_form as kernels
 from tension_opt.kernels import launch
 from tension_opt.problems import StandardForm
@@ -380,3 +381,80 @@ def test_compiled_sequence_equals_pose_by_pose(robot_name: str, problem: to.Tens
         assert np.array_equal(getattr(fast.multipliers, name), getattr(slow.multipliers, name),
                               equal_nan=True), name
     np.testing.assert_array_equal(fast.form.previous, slow.form.previous)
+
+
+DAQP_SEQUENCES = [to.TensionProblem("min_sum", smoothing=1e-3),
+                  to.TensionProblem("min_norm", smoothing=0.5),
+                  to.TensionProblem("min_sum", rate_limit=300.0),  # LPs: pose by pose
+                  to.TensionProblem("centered", smoothing=0.1, rate_limit=500.0, t_max=1e5)]
+
+
+@pytest.mark.parametrize("robot_name", ["algae_harvester", "cogiro"])
+@pytest.mark.parametrize("problem", DAQP_SEQUENCES, ids=lambda p: p.name)
+@pytest.mark.parametrize("start", [False, True])
+@pytest.mark.parametrize("accuracy", ["default", "high"])
+def test_daqp_sequence_equals_pose_by_pose(robot_name: str, problem: to.TensionProblem,
+                                           start: bool, accuracy: str,
+                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    """A smoothed path through ``qpsolvers:daqp`` runs its smoothed poses in one
+    compiled loop calling DAQP's C solver: every status, tension, iteration count,
+    diagnostic and certificate field is what the backend gives pose by pose on each
+    pose's own form, bit for bit (the path of the previous test, leaving the workspace
+    and coming back, with a wrench near the float range on one pose)."""
+    pytest.importorskip("daqp")
+    from tension_opt.kernels import daqp_native
+
+    if daqp_native.load() is None:
+        pytest.skip("DAQP's C solver cannot be called from compiled code here")
+    robot = getattr(presets, robot_name)()
+    ends = random_feasible_poses(robot, 2, 4)
+    poses = ends[0] + np.linspace(0.0, 1.0, 90)[:, None] * (ends[1] - ends[0])
+    low, high = default_box(robot)
+    poses[30:45] = poses[30:45] + 2.0 * (high - low)
+    first = to.distribute(robot, poses[:1], problem.with_(smoothing=0.0, rate_limit=None))
+    previous = first.tensions[0] + 100.0 if start else None
+    wrench = np.zeros((len(poses), robot.dof))
+    wrench[60, 0] = 1e160
+    settled = []
+    run = QpsolversBackend.solve_sequence
+
+    def counted(self, *args, **kwargs):  # type: ignore[no-untyped-def]
+        stop = run(self, *args, **kwargs)
+        settled.append(stop - args[4])
+        return stop
+
+    monkeypatch.setattr(QpsolversBackend, "solve_sequence", counted)
+    fast = to.distribute(robot, poses, problem, "qpsolvers:daqp", wrench=wrench,
+                         previous=previous, accuracy=accuracy)
+    distribute_module = importlib.import_module("tension_opt.distribute")
+    monkeypatch.setattr(distribute_module, "_compiled_sequence", lambda *args: None)
+    slow = to.distribute(robot, poses, problem, "qpsolvers:daqp", wrench=wrench,
+                         previous=previous, accuracy=accuracy)
+    statuses = set(slow.status.tolist())
+    assert len(statuses) > 1, statuses
+    if problem.smoothing:  # QPs once smoothed: most poses in the compiled loop
+        assert to.Status.OPTIMAL in statuses
+        assert sum(settled) >= (slow.status == to.Status.OPTIMAL).sum() // 2, settled
+    for name in ("tensions", "status", "unique", "iterations", "objective", "residual",
+                 "bound_violation", "infeasibility", "primal_residual", "dual_residual",
+                 "duality_gap"):
+        a, b = getattr(fast, name), getattr(slow, name)
+        assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), name
+    for name in ("y", "z"):
+        assert np.array_equal(getattr(fast.multipliers, name), getattr(slow.multipliers, name),
+                              equal_nan=True), name
+    assert fast.accuracy == slow.accuracy
+    np.testing.assert_array_equal(fast.form.previous, slow.form.previous)
+
+
+def test_daqp_sequence_checks_the_options_as_pose_by_pose() -> None:
+    """Every pose of a compiled DAQP run may be smoothed (a start is given): the call's
+    options are still checked, with the package's error."""
+    pytest.importorskip("daqp")
+    robot = presets.algae_harvester()
+    poses = robot.default_home() + np.linspace(0.0, 1.0, 5)[:, None] * [1.0, 0.5, 0.0]
+    problem = to.TensionProblem("min_sum", smoothing=1e-3)
+    start = to.distribute(robot, poses[:1], "min_sum").tensions[0]
+    with pytest.raises(to.SolverError):
+        to.distribute(robot, poses, problem, "qpsolvers:daqp", previous=start,
+                      solver_options={"no_such_setting": 1})
