@@ -463,9 +463,9 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
     """Solve poses in order, each smoothed against the previous solution.
 
     The chain is sequential by nature (pose k needs the answer of pose k - 1). Runs of
-    poses go through the compiled closed form where it applies
-    (:meth:`ClosedFormBackend.solve_sequence`: each pose as its own form would be
-    solved), any other pose through the backend on its own form. Returns the raw
+    poses go through the backend's compiled loop where it has one
+    (:meth:`Backend.solve_sequence`, the compiled closed form and DAQP: each pose as its
+    own form would be solved), any other pose through the backend on its own form. Returns the raw
     result and the stacked form of the problems solved.
     """
     N, _, m = A.shape
