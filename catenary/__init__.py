@@ -28,6 +28,10 @@ A :class:`tension_opt.CableRobot` whose cables sag (built on ``tension_opt``):
   (:func:`time_optimal_sag`).
 """
 
+from pathlib import Path
+
+from tension_opt import compiled_cache
+
 from .elastic import (
     flexibility,
     length_derivative,
@@ -105,3 +109,8 @@ __all__ = [
     "time_optimal_sag",
     "vibration_modes",
 ]
+
+# Before any kernel runs (numba reads its disk cache at a kernel's first call): the
+# caches a source change made stale go, the kernels' imports of tension_opt included.
+compiled_cache.guard("catenary", {"catenary": Path(__file__).parent,
+                                  "tension_opt": Path(compiled_cache.__file__).parent})

@@ -5,7 +5,9 @@ norm, pseudo-inverse, min-max, centred, smoothed), solved by exact closed forms,
 cvxpy, qpsolvers or scipy/HiGHS, over batches of poses.
 """
 
-from tension_opt import caspr, dynamics, presets, workspace
+from pathlib import Path
+
+from tension_opt import caspr, compiled_cache, dynamics, presets, workspace
 from tension_opt.backends import available_backends, get_backend
 from tension_opt.caspr import load_caspr
 from tension_opt.distribute import distribute
@@ -54,3 +56,7 @@ __all__ = [
     "workspace_grid",
     "wrench_feasible_workspace",
 ]
+
+# Before any kernel runs (numba reads its disk cache at a kernel's first call): the
+# caches a source change made stale go.
+compiled_cache.guard("tension_opt", {"tension_opt": Path(__file__).parent})
