@@ -140,6 +140,11 @@ def load_compiled_kernels() -> None:
         if "qpsolvers:daqp" in available:
             to.Distributor(robot, "min_norm", "qpsolvers:daqp")(home)
             to.distribute(robot, np.stack([home, home]), smoothed, "qpsolvers:daqp")
+        # The other qpsolvers' sequence loop (its compiled QP and verdict).
+        other = [b for b in ("qpsolvers:piqp", "qpsolvers:osqp", "qpsolvers:clarabel")
+                 if b in available][:1]
+        for backend in other:
+            to.distribute(robot, np.stack([home, home]), smoothed, backend)
     for end in ("B", "A"):
         catenary.solve_length(10.0, -2.0, 500.0, 2.0, EA=1e6, end=end)
         # Vectors with numbers for w and EA: the kernel's variant for a robot's cables.

@@ -464,8 +464,9 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
 
     The chain is sequential by nature (pose k needs the answer of pose k - 1). Runs of
     poses go through the backend's compiled loop where it has one
-    (:meth:`Backend.solve_sequence`, the compiled closed form and DAQP: each pose as its
-    own form would be solved), any other pose through the backend on its own form. Returns the raw
+    (:meth:`Backend.solve_sequence`, the compiled closed form and qpsolvers: each pose
+    as its own form would be solved), any other pose through the backend on its own
+    form. Returns the raw
     result and the stacked form of the problems solved.
     """
     N, _, m = A.shape
@@ -487,10 +488,10 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
         if base is not None:
             held = np.full(m, np.nan) if last is None else np.array(last, dtype=float)
             t0 = time.perf_counter()
-            stop = backend.solve_sequence(
-                base, problem.smoothing, rates, held, k,
-                SequenceRun(tensions, status, unique, infeasibility, iterations, extras),
-                options)
+            run = SequenceRun(tensions, status, unique, infeasibility, iterations, extras)
+            stop = backend.solve_sequence(base, problem.smoothing, rates, held, k, run,
+                                          options)
+            iterations = run.iterations  # None once a solver reports none
             solve += time.perf_counter() - t0
             _smoothed_against(used, tensions, status, k, stop, last)
             last = held if np.isfinite(held).all() else last
@@ -534,7 +535,7 @@ def _compiled_sequence(backend: Backend, problem: TensionProblem, unsmoothed: Te
                        robot: CableRobot, A: NDArray, b: NDArray, previous: NDArray | None,
                        options: dict[str, Any]) -> StandardForm | None:
     """The unsmoothed forms of every pose, where the backend runs the sequence in a
-    compiled loop (:meth:`Backend.solve_sequence`: the compiled closed form, DAQP),
+    loop (:meth:`Backend.solve_sequence`: the compiled closed form, qpsolvers),
     else None (also for previous tensions that are not m finite numbers: the
     pose-by-pose path names the error)."""
     if not backend.runs_sequences(options):
@@ -545,9 +546,12 @@ def _compiled_sequence(backend: Backend, problem: TensionProblem, unsmoothed: Te
     if any(np.ndim(x) > 1 for x in (problem.t_min, problem.t_max, problem.reference)):
         return None  # rows per pose: each pose's own form
     base = unsmoothed.standard_form_from(robot, A, b)
-    if base.minmax is not None or base.G is not None or backend.unsupported(base):
+    if base.minmax is not None or base.G is not None:
         return None
-    return base
+    # The loop takes the poses the backend takes once smoothed (a QP-only solver the
+    # smoothed ones; the unsmoothed ones go to the pose-by-pose path, which chooses).
+    smoothed = problem.standard_form_from(robot, A[:1], b[:1], np.zeros(robot.m))
+    return None if backend.unsupported(smoothed) else base
 
 
 def _rates(problem: TensionProblem, m: int) -> NDArray:

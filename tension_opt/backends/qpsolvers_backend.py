@@ -47,6 +47,12 @@ _DAQP_EXIT = {1: Status.OPTIMAL, 2: Status.OPTIMAL, -1: Status.INFEASIBLE,
 _BIG = 1e30  # DAQP's infinity
 
 
+#: Solvers left out of the sequence loop: HiGHS's QP multipliers missed the loop's
+#: verdict on every pose measured (0 of 90 study and CoGiRo poses, where its answers were
+#: optimal), so each pose would be solved twice.
+_NO_SEQUENCE = ("highs",)
+
+
 def iterations_of(extras: dict[str, Any]) -> int | None:
     """Iteration count from a qpsolvers Solution's extras (None where not reported)."""
     info = extras.get("info")
@@ -154,10 +160,14 @@ class QpsolversBackend(Backend):
             return self._solve_generic(batch, settings, warm, setup)
 
     def runs_sequences(self, options: Mapping[str, Any]) -> bool:
-        """DAQP runs the smoothed poses of a sequence in compiled code where its C
-        solver can be called from there (:mod:`tension_opt.kernels.daqp_native`)."""
-        if self._solver != "daqp":
+        """The smoothed poses of a sequence run in one loop: through DAQP's C solver
+        called from compiled code (where :mod:`tension_opt.kernels.daqp_native` can),
+        or, for the other solvers, each pose's solver call from Python between two
+        compiled steps (its QP built, its answer judged)."""
+        if self._solver in _NO_SEQUENCE:
             return False
+        if self._solver != "daqp":
+            return True
         from tension_opt.kernels import daqp_native
 
         return daqp_native.load() is not None
@@ -165,34 +175,42 @@ class QpsolversBackend(Backend):
     def solve_sequence(self, base: StandardForm, smoothing: float, rate: NDArray,
                        last: NDArray, start: int, run: SequenceRun,
                        options: Mapping[str, Any]) -> int:
-        """:meth:`Backend.solve_sequence` through DAQP's C solver called from compiled
-        code (:func:`tension_opt.kernels.dense_qp.solve_sequence`): each smoothed pose's
-        QP is the one :meth:`solve_stage` builds for its one-pose form, solved cold and
-        optimal only where DAQP's answer is certified with its own multipliers (and
-        within the feasibility tolerance); an LP (a pose with nothing to smooth
-        against, a rate limit alone) and any pose the loop does not certify go back to
-        :meth:`solve`, which then reports what it finds."""
+        """:meth:`Backend.solve_sequence` without the per-pose pipeline
+        (:func:`tension_opt.kernels.dense_qp.solve_sequence`, or
+        :func:`~tension_opt.kernels.dense_qp.sequence_pose` and
+        :func:`~tension_opt.kernels.dense_qp.sequence_verdict` around the solver): each
+        smoothed pose's QP is the one :meth:`solve_stage` builds for its one-pose form,
+        solved cold, and optimal only where the answer is certified with the solver's
+        own multipliers (and within the feasibility tolerance). An LP (a pose with
+        nothing to smooth against, a rate limit alone) and any pose the loop does not
+        certify go back to :meth:`solve`, which then reports what it finds."""
         from tension_opt.kernels import dense_qp
 
         self.check_solver_options(options)
         settings = solver_options(self._solver, options.get("accuracy"),
                                   options.get("time_limit"), options.get("solver_options"))
-        structs = _native_structs(settings)
-        if structs is None:
-            return start
         target = accuracy_target(options.get("accuracy"))
+        tol = max(FEASIBILITY_TOL, 10.0 * target)
         N, m, n = base.N, base.m, base.n
-        floats = np.zeros(dense_qp.qp_size(m, n) + 7 * m + 2 * n)
-        sense = np.zeros(m + n, dtype=c_int)
-        sense[m:] = 5  # the equations
+        floats = np.zeros(dense_qp.sequence_size(m, n))
         counts = np.zeros(N, dtype=np.int64)
         arrays = [np.ascontiguousarray(x, dtype=float)
                   for x in (base.A, base.b, base.lb, base.ub, base.q, base.c)]
-        stop = int(dense_qp.solve_sequence(
-            *arrays, float(smoothing), np.ascontiguousarray(rate, dtype=float),
-            max(FEASIBILITY_TOL, 10.0 * target), target, last,
-            bool(np.isfinite(last).all()), run.tensions, counts, start, floats, sense,
-            structs))
+        rate = np.ascontiguousarray(rate, dtype=float)
+        if self._solver == "daqp":
+            structs = _native_structs(settings)
+            if structs is None:
+                return start
+            sense = np.zeros(m + n, dtype=c_int)
+            sense[m:] = 5  # the equations
+            stop = int(dense_qp.solve_sequence(
+                *arrays, float(smoothing), rate, tol, target, last,
+                bool(np.isfinite(last).all()), run.tensions, counts, start, floats, sense,
+                structs))
+        else:
+            with quiet_solvers():
+                stop = self._generic_sequence(arrays, float(smoothing), rate, last, start,
+                                              run, settings, (tol, target), floats, counts)
         if stop > start:
             done = slice(start, stop)
             run.status[done], run.unique[done] = Status.OPTIMAL, True
@@ -200,6 +218,65 @@ class QpsolversBackend(Backend):
                 run.iterations[done] = counts[done]
             run.extras["accuracy_target"] = target  # as each pose's solve reports it
         return stop
+
+    def _generic_sequence(self, arrays: list[NDArray], smoothing: float, rate: NDArray,
+                          last: NDArray, start: int, run: SequenceRun,
+                          settings: dict[str, Any], judged: tuple[float, float],
+                          floats: NDArray, counts: NDArray) -> int:
+        """The loop of :meth:`solve_sequence` for a solver called from Python: the pose's
+        QP as :meth:`_solve_generic` hands it to qpsolvers (the same arrays, no start
+        point), its answer judged in compiled code. Returns the first pose left."""
+        from tension_opt.kernels import dense_qp
+        from tension_opt.kernels.launch import entry_point
+
+        A, b = arrays[0], arrays[1]
+        N, n, m = A.shape
+        size = dense_qp.qp_size(m, n)
+        H, f, Ad, upper, _ = dense_qp.qp_views(floats[:size], m, n)
+        x, lam = floats[size:size + m], floats[size + m:size + 2 * m + n]
+        o = size + 6 * m + 2 * n
+        lbs, ubs = floats[o:o + m], floats[o + m:o + 2 * m]
+        has_last = bool(np.isfinite(last).all())
+        # Entry points: every argument's type is fixed here (numba's dispatch would cost
+        # a tenth of a solve per call).
+        pose = entry_point(dense_qp.sequence_pose, *arrays, smoothing, rate, last, has_last,
+                           start, floats)
+        verdict = entry_point(dense_qp.sequence_verdict, A, b, start, floats, *judged, 1.0,
+                              run.tensions[0])
+        for k in range(start, N):
+            code, s = pose(*arrays, smoothing, rate, last, has_last, k, floats)
+            if code:
+                return k
+            bounded_lb, bounded_ub = bool(np.isfinite(lbs).any()), bool(np.isfinite(ubs).any())
+            problem = qpsolvers.Problem(H, f, None, None, Ad, upper[m:],
+                                        lbs if bounded_lb else None,
+                                        ubs if bounded_ub else None)
+            try:
+                sol = qpsolvers.solve_problem(problem, solver=self._solver, initvals=None,
+                                              **settings)
+            except Exception:  # the backend's own call of this pose names the error
+                return k
+            if not (sol.found and sol.x is not None and np.size(sol.x) == m
+                    and np.isfinite(sol.x).all()):
+                return k
+            y = None if sol.y is None else np.ravel(sol.y)
+            z = None if sol.z_box is None else np.ravel(sol.z_box)
+            if y is None or y.size != n or (z is None and (bounded_lb or bounded_ub)) or (
+                    z is not None and z.size != m):
+                return k  # multipliers to estimate: the backend's certificate does it
+            x[:] = np.ravel(sol.x)
+            lam[:m] = 0.0 if z is None else z
+            lam[m:] = y
+            if verdict(A, b, k, floats, *judged, s, run.tensions[k]):
+                return k
+            count = iterations_of(sol.extras or {})
+            if count is None:
+                run.iterations = None  # as the backend, which then reports none
+            else:
+                counts[k] = count
+            last[:] = run.tensions[k]
+            has_last = True
+        return N
 
     def _solve_generic(self, batch: DenseBatch, settings: dict[str, Any], warm: bool,
                        setup: float) -> RawResult:

@@ -43,7 +43,8 @@ from tension_opt.kernels.scaling import pose_scaling
 from tension_opt.problems import ROW_FLOOR, UB_SHARE
 
 __all__ = ["BIG", "DaqpPose", "qp_build", "qp_judge", "qp_problem", "qp_size", "qp_verdict",
-           "qp_views", "solve_pose", "solve_sequence"]
+           "qp_views", "sequence_pose", "sequence_size", "sequence_verdict", "solve_pose",
+           "solve_sequence"]
 
 #: DAQP's infinity.
 BIG = 1e30
@@ -252,6 +253,80 @@ def solve_pose(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray, has
     return code, res, iterations
 
 
+def sequence_size(m: int, n: int) -> int:
+    """Floats of the work array of :func:`solve_sequence` and :func:`sequence_pose`:
+    DAQP's arrays (:func:`qp_views`), the solution (m,) and multipliers (m + n,), the
+    pose's terms ``q, c, lb, ub`` (m,) each, the rows' factors (n,) and the scaled
+    bounds ``lb / s``, ``ub / s`` (m,) each."""
+    return qp_size(m, n) + 9 * m + 2 * n
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _pose_qp(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0: NDArray,
+             c0: NDArray, smoothing: float, rate: NDArray, last: NDArray, has_last: bool,
+             k: int, floats: NDArray) -> tuple[int, float]:
+    """Pose ``k``'s form smoothed against ``last`` and its scaled QP, written into
+    ``floats`` (:func:`sequence_size`); ``(code, scale)`` as :func:`qp_build`, code
+    ``CODE_FALLBACK`` also for data that are not finite."""
+    _, n, m = A.shape
+    size = qp_size(m, n)
+    o = size + 2 * m + n
+    q, c, lb, ub = floats[o:o + m], floats[o + m:o + 2 * m], floats[o + 2 * m:o + 3 * m], \
+        floats[o + 3 * m:o + 4 * m]
+    rows = floats[o + 4 * m:o + 4 * m + n]
+    lbs, ubs = floats[o + 4 * m + n:o + 5 * m + n], floats[o + 5 * m + n:o + 6 * m + n]
+    H, f, Ad, upper, lower = qp_views(floats[:size], m, n)
+    form_terms(q0[k], c0[k], lb0[k], ub0[k], smoothing, rate, last, has_last, q, c, lb, ub)
+    finite = True
+    for i in range(m):
+        finite = finite and math.isfinite(q[i]) and math.isfinite(c[i]) \
+            and not (math.isnan(lb[i]) or math.isnan(ub[i]))
+        for j in range(n):
+            finite = finite and math.isfinite(A[k, j, i])
+    for j in range(n):
+        finite = finite and math.isfinite(b[k, j])
+    code, s = CODE_FALLBACK, np.nan
+    if finite:
+        code, s = qp_build(A[k], b[k], q, c, lb, ub, rows, H, f, Ad, upper, lower)
+    for i in range(m if code == 0 else 0):  # the generic solvers' bounds
+        lbs[i], ubs[i] = lb[i] / s, ub[i] / s
+    return code, s
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _pose_verdict(A: NDArray, b: NDArray, k: int, floats: NDArray, tol_factor: float,
+                  target: float, s: float, T: NDArray) -> int:
+    """:func:`qp_verdict` of pose ``k`` of :func:`_pose_qp` on the solution and
+    multipliers in ``floats`` (bounds, then equations), its tensions into ``T``."""
+    _, n, m = A.shape
+    size = qp_size(m, n)
+    x, lam = floats[size:size + m], floats[size + m:size + 2 * m + n]
+    o = size + 2 * m + n
+    lb, ub = floats[o + 2 * m:o + 3 * m], floats[o + 3 * m:o + 4 * m]
+    H, f, Ad, upper, _ = qp_views(floats[:size], m, n)
+    return qp_verdict(A[k], b[k], lb, ub, tol_factor, H, f, Ad, upper, x, lam, s, target,
+                      T)[0]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def sequence_pose(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0: NDArray,
+                  c0: NDArray, smoothing: float, rate: NDArray, last: NDArray,
+                  has_last: bool, k: int, floats: NDArray) -> tuple[int, float]:
+    """Pose ``k`` of a smoothed sequence as :func:`solve_sequence` builds it, for a
+    solver called from Python (the arrays of :func:`solve_sequence`); ``(code,
+    scale)``, code 0 where the pose is a QP ready in ``floats``."""
+    return _pose_qp(A, b, lb0, ub0, q0, c0, smoothing, rate, last, has_last, k, floats)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def sequence_verdict(A: NDArray, b: NDArray, k: int, floats: NDArray, tol_factor: float,
+                     target: float, s: float, T: NDArray) -> int:
+    """The verdict of :func:`solve_sequence` on a solution and multipliers written into
+    ``floats`` (:func:`sequence_size`) by a solver called from Python: 0 (certified
+    optimal, ``T`` (m,) written) or ``CODE_FALLBACK``."""
+    return _pose_verdict(A, b, k, floats, tol_factor, target, s, T)
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def solve_sequence(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0: NDArray,
                    c0: NDArray, smoothing: float, rate: NDArray, tol_factor: float,
@@ -288,8 +363,7 @@ def solve_sequence(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0: NDArr
     iterations : ndarray of int64, shape (N,)
         DAQP's iterations, written for the poses settled.
     floats : ndarray
-        Zeros: ``qp_size(m, n) + 7 m + 2 n`` floats (DAQP's arrays, solution and
-        multipliers, then the pose's terms and row factors).
+        Zeros, :func:`sequence_size` floats.
     sense : ndarray of int32, shape (m + n,)
         DAQP's constraint types: bounds free (0), equations 5.
     structs : ndarray of int64
@@ -297,35 +371,16 @@ def solve_sequence(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0: NDArr
     """
     N, n, m = A.shape
     size = qp_size(m, n)
-    qp, x, lam = floats[:size], floats[size:size + m], floats[size + m:size + 2 * m + n]
-    o = size + 2 * m + n
-    q, c, lb, ub = floats[o:o + m], floats[o + m:o + 2 * m], floats[o + 2 * m:o + 3 * m], \
-        floats[o + 3 * m:o + 4 * m]
-    rows = floats[o + 4 * m:o + 4 * m + n]
-    H, f, Ad, upper, lower = qp_views(qp, m, n)
+    x, lam = floats[size:size + m], floats[size + m:size + 2 * m + n]
+    H, f, Ad, upper, lower = qp_views(floats[:size], m, n)
     for k in range(start, N):
-        form_terms(q0[k], c0[k], lb0[k], ub0[k], smoothing, rate, last, has_last, q, c, lb,
-                   ub)
-        finite = True
-        for i in range(m):
-            finite = finite and math.isfinite(q[i]) and math.isfinite(c[i]) \
-                and not (math.isnan(lb[i]) or math.isnan(ub[i]))
-            for j in range(n):
-                finite = finite and math.isfinite(A[k, j, i])
-        for j in range(n):
-            finite = finite and math.isfinite(b[k, j])
-        if not finite:
-            return k
-        code, s = qp_build(A[k], b[k], q, c, lb, ub, rows, H, f, Ad, upper, lower)
+        code, s = _pose_qp(A, b, lb0, ub0, q0, c0, smoothing, rate, last, has_last, k,
+                           floats)
         if code:
             return k
         sense[:m] = 0  # cold, as a batch of one pose starts
         flag, count = daqp_native.quadprog(H, f, Ad, upper, lower, sense, x, lam, structs)
-        if flag <= 0:
-            return k
-        code, _ = qp_verdict(A[k], b[k], lb, ub, tol_factor, H, f, Ad, upper, x, lam, s,
-                             target, T[k])
-        if code:
+        if flag <= 0 or _pose_verdict(A, b, k, floats, tol_factor, target, s, T[k]):
             return k
         iterations[k] = count
         last[:] = T[k]
