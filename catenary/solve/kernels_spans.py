@@ -2,7 +2,10 @@
 solvers of :mod:`catenary.solve.kernels` share: spans, flexibility and end tensions
 (:func:`spans_one`, the kernel twin of :func:`catenary.elastic.evaluate`, the numpy
 reference), ``hypot`` on safe squares, the power-of-two units, and the argument checks.
-Imports numpy and numba only.
+The length solve's spans (``fast``) differ from the reference by rounding only: one
+``asinh`` of the two where the cable has a low point between its ends, and ``asinh`` to
+about one ulp at about half libm's latency (:func:`asinh_fast`). Imports numpy and
+numba only.
 """
 
 from __future__ import annotations
@@ -14,8 +17,8 @@ from numba import njit, types
 from numba.extending import overload
 from numpy.typing import NDArray
 
-__all__ = ["EPS", "RES_TOL", "T_TOL", "at", "clip", "hypot", "nanmax", "power_of_two", "spans",
-           "spans_flex", "spans_one", "valid"]
+__all__ = ["EPS", "RES_TOL", "T_TOL", "asinh_fast", "at", "clip", "hypot", "nanmax",
+           "power_of_two", "spans", "spans_flex", "spans_one", "valid"]
 
 RES_TOL = 1e-8
 EPS = float(np.finfo(np.float64).eps)
@@ -53,6 +56,48 @@ def _poly(coeffs: NDArray, u2: float) -> float:
     return acc
 
 
+#: Veltkamp's splitter of a double into two halves of 26 bits (:func:`_square`).
+_SPLIT = 2.0**27 + 1.0
+#: Arguments above which :func:`asinh_fast` calls libm (its squares would overflow).
+_ASINH_LARGE = 1e100
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _square(a: float) -> tuple[float, float]:
+    """``a * a`` as ``hi + lo`` exactly (Dekker's product, no fused multiply-add),
+    ``|a|`` below ``1e100``."""
+    hi = a * a
+    c = _SPLIT * a
+    a_hi = c - (c - a)
+    a_lo = a - a_hi
+    return hi, ((a_hi * a_hi - hi) + 2.0 * a_hi * a_lo) + a_lo * a_lo
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def asinh_fast(a: float) -> float:
+    """``asinh(a)`` to about one ulp (as libm's), at about half its latency: the
+    series below ``_SERIES_CUT``, else ``log(y)`` of ``y = |a| + sqrt(1 + a^2)``
+    plus ``y_lo / y``, ``y_lo`` the rounding errors of ``y`` found exactly (error-free
+    sums and squares); libm's beyond ``1e100`` and for NaN and inf."""
+    b = abs(a)
+    if b < _SERIES_CUT:
+        b2 = b * b
+        r = b + b * b2 * _poly(_ASINHC_M1, b2)
+    elif b < _ASINH_LARGE:
+        b2, b2_lo = _square(b)
+        t = 1.0 + b2  # and its error t_lo (the larger term first)
+        t_lo = (((1.0 - t) + b2) if b2 < 1.0 else ((b2 - t) + 1.0)) + b2_lo
+        s = math.sqrt(t)
+        s2, s2_lo = _square(s)
+        s_lo = (((t - s2) - s2_lo) + t_lo) / (2.0 * s)  # sqrt(t + t_lo) - s
+        y = b + s  # s > b
+        y_lo = ((s - y) + b) + s_lo
+        r = math.log(y) + y_lo / y
+    else:
+        r = math.asinh(b)
+    return math.copysign(r, a)
+
+
 @njit(cache=True, error_model="numpy", inline="always")
 def _g(a: float, asinh_a: float) -> float:
     """``asinh(a) - a / sqrt(1 + a^2)`` without cancellation, given ``asinh(a)`` (the
@@ -64,6 +109,34 @@ def _g(a: float, asinh_a: float) -> float:
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _spread(H: float, V_B: float, V_A: float, T_A: float, T_B: float) -> float:
+    """``asinh(V_B / H) - asinh(V_A / H)`` for ``V_A < 0 < V_B``, ``H`` above
+    ``1e-150``: by ``asinh(a) - asinh(b) = asinh(a sqrt(1 + b^2) - b sqrt(1 + a^2))``,
+    one ``asinh`` (a libm call as long as several divisions) of a sum of two positive
+    terms, without cancellation."""
+    return asinh_fast((V_B * T_A - V_A * T_B) / (H * H))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _g_pair(H: float, V_b: float, V_a: float, spread: float, r_b: float, r_a: float
+            ) -> float:
+    """``_g(a) + _g(b)`` (:func:`_g`) of ``a = V_b / H > 0`` and ``b = V_a / H > 0``,
+    given ``spread = asinh(a) + asinh(b)`` and each ``r = V / T = a / sqrt(1 + a^2)``:
+    a small argument's ``asinh`` by its series, the other's as the spread less that,
+    so no ``asinh`` is called."""
+    small_b, small_a = V_b < _SERIES_CUT * H, V_a < _SERIES_CUT * H
+    if not (small_b or small_a):
+        return spread - (r_b + r_a)
+    a, b = V_b / H, V_a / H
+    if small_b and small_a:
+        return a * a * a * _poly(_G_SERIES, a * a) + b * b * b * _poly(_G_SERIES, b * b)
+    s, r_l = (a, r_a) if small_b else (b, r_b)  # the small one, the other's V / T
+    s2 = s * s
+    ash_s = s + s * s2 * _poly(_ASINHC_M1, s2)
+    return s * s2 * _poly(_G_SERIES, s2) + ((spread - ash_s) - r_l)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def spans(H: float, V_B: float, L0: float, w: float, inv_EA: float, fast: bool
           ) -> tuple[float, float, float, float, float, float, float, float, bool, bool,
                      float, float]:
@@ -72,7 +145,10 @@ def spans(H: float, V_B: float, L0: float, w: float, inv_EA: float, fast: bool
     ``opposite``, the two ``asinh`` only where it is: each is needed only there).
     ``fast``: the end tensions by :func:`hypot` (the length solve, on nondimensional
     data), else by libm's (the force solve: near a taut inextensible cable its forces
-    follow the last bit of the tensions, and the numpy path's iterations with them)."""
+    follow the last bit of the tensions, and the numpy path's iterations with them);
+    and where ``opposite``, their difference by one ``asinh`` (:func:`_spread`) in
+    place of the two, returned as ``asinh(V_B / H)`` with NaN as ``asinh(V_A / H)``;
+    and ``asinh`` by :func:`asinh_fast`."""
     wL = w * L0
     V_A = V_B - wL
     if fast:
@@ -84,7 +160,10 @@ def spans(H: float, V_B: float, L0: float, w: float, inv_EA: float, fast: bool
     HL = H * L0
     opposite = V_A < 0.0 and V_B > 0.0
     qm1 = ash_b = ash_a = 0.0
-    if opposite:
+    if opposite and fast and H > _SQUARES_SAFE[0]:
+        ash_b, ash_a = _spread(H, V_B, V_A, T_A, T_B), np.nan
+        x_c = H / w * ash_b
+    elif opposite:
         ash_b, ash_a = math.asinh(V_B / H), math.asinh(V_A / H)
         x_c = H / w * (ash_b - ash_a)
     else:
@@ -93,7 +172,7 @@ def spans(H: float, V_B: float, L0: float, w: float, inv_EA: float, fast: bool
             qm1 = u * u * _poly(_ASINHC_M1, u * u)
             q = 1.0 + qm1
         else:
-            q = math.asinh(u) / u
+            q = (asinh_fast(u) if fast else math.asinh(u)) / u
             qm1 = q - 1.0
         x_c = HL * rho * q
     z_c = L0 * S / TS
@@ -123,7 +202,11 @@ def spans_flex(H: float, V_B: float, L0: float, w: float, inv_EA: float, fast: b
     TS, HL = T_A + T_B, H * L0
     TT, H2 = T_A * T_B, H * H
     F_xz = -HL * S / (TT * TS)
-    if opposite:  # asinh is odd: asinh(-V_A / H) = -asinh(V_A / H)
+    if opposite and ash_a != ash_a:  # ash_b is the spread (spans, fast)
+        r_b, r_a = V_B / T_B, -V_A / T_A
+        F_xx = _g_pair(H, V_B, -V_A, ash_b, r_b, r_a) / w
+        F_zz = (r_b + r_a) / w
+    elif opposite:  # asinh is odd: asinh(-V_A / H) = -asinh(V_A / H)
         F_xx = (_g(V_B / H, ash_b) + _g(-V_A / H, -ash_a)) / w
         F_zz = (V_B / T_B - V_A / T_A) / w
     else:
