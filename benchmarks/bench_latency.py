@@ -11,7 +11,9 @@ are timed in CPU time of the calling thread (``time.thread_time_ns``), so that o
 load on a shared machine counts less; the timer's own cost (about 1 us: the clock is a
 system call) is printed as the first row and included in every per-call figure.
 Batches are timed in wall time per pose (``time.perf_counter``) on one and on all numba
-threads. The first-call cost (compiling the kernels, or loading them from numba's disk
+threads: the median of three calls after one untimed call of the same size (the first
+call of a size in a process touches fresh memory, which costs up to twice as much).
+The first-call cost (compiling the kernels, or loading them from numba's disk
 cache) is measured in fresh processes.
 """
 
@@ -206,6 +208,18 @@ def _chunk_threads(threads: int) -> Iterator[None]:
         module.chunk_threads = saved
 
 
+def wall_per_item(fn: Callable[[], object], count: int, runs: int = 3) -> float:
+    """Median wall time (ns) per item of ``fn`` over ``runs`` calls after an untimed
+    one (see the module docstring)."""
+    fn()
+    times = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times)) / count * 1e9
+
+
 def batch_rows(count: int) -> None:
     """Closed-form min-sum over many feasible and infeasible poses; solve_length over
     many cables; wall time per pose on one and on all threads."""
@@ -229,17 +243,14 @@ def batch_rows(count: int) -> None:
         print(f"  {label:<11s} before: distribute, numpy closed form {before:10.1f} ns/pose")
         for threads in sorted({1, chunk_threads()}):
             with _chunk_threads(threads):
-                t0 = time.perf_counter()
-                to.distribute(robot, poses, "min_sum", "closed_form")
-                plain = (time.perf_counter() - t0) / count * 1e9
+                plain = wall_per_item(
+                    lambda p=poses: to.distribute(robot, p, "min_sum", "closed_form"), count)
             print(f"  {label:<11s} plain call: distribute (compiled), {threads} thread(s) "
                   f"{plain:10.1f} ns/pose  ({before / plain:.1f}x)")
         for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
             numba.set_num_threads(threads)
             solver(poses[:PARALLEL_MIN])  # loads the parallel kernel before timing it
-            t0 = time.perf_counter()
-            solver(poses)
-            after = (time.perf_counter() - t0) / count * 1e9
+            after = wall_per_item(lambda p=poses: solver(p), count)
             print(f"  {label:<11s} after: Distributor, {threads} thread(s) {after:10.1f} "
                   f"ns/pose  ({before / after:.1f}x)")
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
@@ -254,13 +265,9 @@ def batch_rows(count: int) -> None:
     before = (time.perf_counter() - t0) / count * 1e9
     warm = PARALLEL_FROM + 1  # loads the parallel kernel before timing it
     catenary.solve_length(x[:warm], zc[:warm], T[:warm], w, EA)
-    t0 = time.perf_counter()
-    catenary.solve_length(x, zc, T, w, EA)
-    plain = (time.perf_counter() - t0) / count * 1e9
+    plain = wall_per_item(lambda: catenary.solve_length(x, zc, T, w, EA), count)
     solve_length_compiled(x[:warm], zc[:warm], T[:warm], w, 1e7)
-    t0 = time.perf_counter()
-    solve_length_compiled(x, zc, T, w, EA)
-    after = (time.perf_counter() - t0) / count * 1e9
+    after = wall_per_item(lambda: solve_length_compiled(x, zc, T, w, EA), count)
     print(f"  before (compiled=False) {before:10.1f} ns/cable   plain call {plain:10.1f} "
           f"ns/cable ({before / plain:.1f}x)   solve_length_compiled {after:10.1f} ns/cable "
           f"({before / after:.1f}x)")
