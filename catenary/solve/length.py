@@ -359,7 +359,9 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
             return None  # the numpy checks raise the package's error
         status = all_converged(n)
         status[codes == kernels.INFEASIBLE] = INFEASIBLE
-        redo = np.flatnonzero((codes != kernels.CONVERGED) & (codes != kernels.INFEASIBLE))
+        # From the codes: comparing the status strings costs as much as copying them.
+        converged = codes == kernels.CONVERGED
+        redo = np.flatnonzero(~converged & (codes != kernels.INFEASIBLE))
         if redo.size:
             with np.errstate(all="ignore"):
                 H, V, V_A, L, its, st = _solve_length_flat(
@@ -368,7 +370,7 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
             out[0, redo], out[1, redo], out[2, redo], out[3, redo] = H, V, V_A, L
             ints[1, redo] = its
             status[redo] = st
-        converged = status == CONVERGED
+            converged[redo] = st == CONVERGED
     else:
         status, converged = all_converged(n), all_true(n)
     H, V_B, V_A, L0, its = out[0], out[1], out[2], out[3], ints[1]
