@@ -57,6 +57,7 @@ def assert_agree(got: catenary.InverseKinematicsResult,
 @SLOW
 @given(pose=ALGAE_POSES)
 @example(pose=(0.0, 0.0, 7.5))  # on both symmetry planes, at the towers' height
+@example(pose=(2.0, 31.0, 7.5))  # held, though the reference gives up (below)
 def test_cold_start_runs_the_reference_iterates(pose: tuple[float, float, float]) -> None:
     p = np.array(pose)
     ref = catenary.inverse_kinematics(ALGAE, p, model="coupled")
@@ -71,6 +72,14 @@ def test_cold_start_runs_the_reference_iterates(pose: tuple[float, float, float]
     # straight-line optimum that is not unique (on the symmetry planes) is broken to the
     # minimum norm of its face, a step the two take in different order: again the same
     # fixed point (9 iterations against 4 at the centre of the towers' top).
+    if ref.status[0] == Status.INFEASIBLE and got.status[0] == Status.CONVERGED:
+        # The reference gives up after its restarts where the kernel's certified answer
+        # shows the pose is held (found at (2, 31, 7.5): two cables 0.1 m below their
+        # anchors' height at 1.29 MN, the robot's t_max infinite).
+        assert got.equilibrium_residual[0] <= CERT_TOL * LOAD
+        assert (got.tensions[0] >= ALGAE.t_min * (1 - 1e-12)).all()
+        assert (got.tensions[0] <= ALGAE.t_max).all()
+        return
     assert_agree(got, ref, 10 * TOL, LOAD)
     if ref.status[0] == Status.CONVERGED and straight:
         assert abs(int(got.iterations[0]) - int(ref.iterations[0])) <= 1
