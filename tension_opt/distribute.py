@@ -538,20 +538,20 @@ def _compiled_sequence(backend: Backend, problem: TensionProblem, unsmoothed: Te
     loop (:meth:`Backend.solve_sequence`: the compiled closed form, qpsolvers),
     else None (also for previous tensions that are not m finite numbers: the
     pose-by-pose path names the error)."""
-    if not backend.runs_sequences(options):
-        return None
     if previous is not None and not (np.shape(previous) == (robot.m,)
                                      and np.isfinite(previous).all()):
         return None
     if any(np.ndim(x) > 1 for x in (problem.t_min, problem.t_max, problem.reference)):
         return None  # rows per pose: each pose's own form
-    base = unsmoothed.standard_form_from(robot, A, b)
-    if base.minmax is not None or base.G is not None:
-        return None
     # The loop takes the poses the backend takes once smoothed (a QP-only solver the
     # smoothed ones; the unsmoothed ones go to the pose-by-pose path, which chooses).
     smoothed = problem.standard_form_from(robot, A[:1], b[:1], np.zeros(robot.m))
-    return None if backend.unsupported(smoothed) else base
+    if backend.unsupported(smoothed) or not backend.runs_sequences(options, smoothed):
+        return None
+    base = unsmoothed.standard_form_from(robot, A, b)
+    if base.minmax is not None or base.G is not None:
+        return None
+    return base
 
 
 def _rates(problem: TensionProblem, m: int) -> NDArray:

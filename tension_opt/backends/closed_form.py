@@ -86,7 +86,7 @@ class ClosedFormBackend(Backend):
         elapsed = time.perf_counter() - t0
         return RawResult(T, status, np.zeros(form.N, dtype=int), 0.0, elapsed, unique, infeas)
 
-    def runs_sequences(self, options: Mapping[str, Any]) -> bool:
+    def runs_sequences(self, options: Mapping[str, Any], smoothed: StandardForm) -> bool:
         return self.compiled
 
     def solve_sequence(self, base: StandardForm, smoothing: float, rate: NDArray,

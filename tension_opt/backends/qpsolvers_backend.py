@@ -51,6 +51,8 @@ _BIG = 1e30  # DAQP's infinity
 #: verdict on every pose measured (0 of 90 study and CoGiRo poses, where its answers were
 #: optimal), so each pose would be solved twice.
 _NO_SEQUENCE = ("highs",)
+#: The entry points of the sequence loop's compiled steps (made on first use).
+_SEQUENCE_ENTRIES: list[Any] = []
 
 
 def iterations_of(extras: dict[str, Any]) -> int | None:
@@ -159,12 +161,13 @@ class QpsolversBackend(Backend):
                 return self._solve_daqp(batch, settings, warm, setup)
             return self._solve_generic(batch, settings, warm, setup)
 
-    def runs_sequences(self, options: Mapping[str, Any]) -> bool:
+    def runs_sequences(self, options: Mapping[str, Any], smoothed: StandardForm) -> bool:
         """The smoothed poses of a sequence run in one loop: through DAQP's C solver
         called from compiled code (where :mod:`tension_opt.kernels.daqp_native` can),
         or, for the other solvers, each pose's solver call from Python between two
-        compiled steps (its QP built, its answer judged)."""
-        if self._solver in _NO_SEQUENCE:
+        compiled steps (its QP built, its answer judged). Not where smoothed poses are
+        LPs (a rate limit alone), which the loop leaves to the pose-by-pose path."""
+        if self._solver in _NO_SEQUENCE or smoothed.kind != "qp":
             return False
         if self._solver != "daqp":
             return True
@@ -239,10 +242,12 @@ class QpsolversBackend(Backend):
         has_last = bool(np.isfinite(last).all())
         # Entry points: every argument's type is fixed here (numba's dispatch would cost
         # a tenth of a solve per call).
-        pose = entry_point(dense_qp.sequence_pose, *arrays, smoothing, rate, last, has_last,
-                           start, floats)
-        verdict = entry_point(dense_qp.sequence_verdict, A, b, start, floats, *judged, 1.0,
-                              run.tensions[0])
+        if not _SEQUENCE_ENTRIES:  # the argument types are always these: made once
+            _SEQUENCE_ENTRIES.append(entry_point(dense_qp.sequence_pose, *arrays, smoothing,
+                                                 rate, last, has_last, start, floats))
+            _SEQUENCE_ENTRIES.append(entry_point(dense_qp.sequence_verdict, A, b, start,
+                                                 floats, *judged, 1.0, run.tensions[0]))
+        pose, verdict = _SEQUENCE_ENTRIES[0], _SEQUENCE_ENTRIES[1]
         for k in range(start, N):
             code, s = pose(*arrays, smoothing, rate, last, has_last, k, floats)
             if code:
