@@ -51,8 +51,9 @@ _BIG = 1e30  # DAQP's infinity
 #: verdict on every pose measured (0 of 90 study and CoGiRo poses, where its answers were
 #: optimal), so each pose would be solved twice.
 _NO_SEQUENCE = ("highs",)
-#: The entry points of the sequence loop's compiled steps (made on first use).
-_SEQUENCE_ENTRIES: list[Any] = []
+#: The entry points of the sequence loop's compiled steps (made on first use; threads
+#: that make them at once store equal pairs).
+_SEQUENCE_ENTRIES: dict[str, tuple[Any, Any]] = {}
 
 
 def iterations_of(extras: dict[str, Any]) -> int | None:
@@ -242,12 +243,14 @@ class QpsolversBackend(Backend):
         has_last = bool(np.isfinite(last).all())
         # Entry points: every argument's type is fixed here (numba's dispatch would cost
         # a tenth of a solve per call).
-        if not _SEQUENCE_ENTRIES:  # the argument types are always these: made once
-            _SEQUENCE_ENTRIES.append(entry_point(dense_qp.sequence_pose, *arrays, smoothing,
-                                                 rate, last, has_last, start, floats))
-            _SEQUENCE_ENTRIES.append(entry_point(dense_qp.sequence_verdict, A, b, start,
-                                                 floats, *judged, 1.0, run.tensions[0]))
-        pose, verdict = _SEQUENCE_ENTRIES[0], _SEQUENCE_ENTRIES[1]
+        entries = _SEQUENCE_ENTRIES.get("steps")
+        if entries is None:  # the argument types are always these: made once, as a pair
+            entries = (entry_point(dense_qp.sequence_pose, *arrays, smoothing, rate, last,
+                                   has_last, start, floats),
+                       entry_point(dense_qp.sequence_verdict, A, b, start, floats, *judged,
+                                   1.0, run.tensions[0]))
+            _SEQUENCE_ENTRIES["steps"] = entries
+        pose, verdict = entries
         for k in range(start, N):
             code, s = pose(*arrays, smoothing, rate, last, has_last, k, floats)
             if code:

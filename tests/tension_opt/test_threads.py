@@ -80,6 +80,21 @@ def test_auto_and_sequences_from_threads(study: to.CableRobot, poses: np.ndarray
         _same(got, serial[j], problems[j].name)
 
 
+def test_qp_sequence_loops_from_threads(study: to.CableRobot, poses: np.ndarray) -> None:
+    """Smoothed sequences through the qpsolvers loops (DAQP's compiled one, and the
+    others' compiled steps around the solver) from 8 threads at once."""
+    problem = to.TensionProblem("min_sum", smoothing=1e-3)
+    backends = [b for b in ("qpsolvers:daqp", "qpsolvers:piqp", "qpsolvers:quadprog")
+                if b in to.available_backends()]
+    serial = {b: to.distribute(study, poses[:40], problem, b) for b in backends}
+    jobs = backends * 4
+    random.Random(3).shuffle(jobs)
+    with ThreadPoolExecutor(THREADS) as pool:
+        results = list(pool.map(lambda b: to.distribute(study, poses[:40], problem, b), jobs))
+    for backend, got in zip(jobs, results, strict=True):
+        _same(got, serial[backend], backend)
+
+
 def test_warnings_filters_are_left_as_they_were(study: to.CableRobot,
                                                 poses: np.ndarray) -> None:
     # The solvers' own warnings are silenced while they run; concurrent calls must not
