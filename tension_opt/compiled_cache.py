@@ -63,19 +63,20 @@ def guard(package: str, roots: Mapping[str, Path]) -> list[str]:
 
 
 def _guard(package: str, roots: Mapping[str, Path]) -> list[str]:
+    """:func:`guard` without its once-per-process and error handling."""
     files = _modules(roots)
     stamps = {name: _stamp(path) for name, path in files.items()}
     record = roots[package] / "__pycache__" / STAMP_NAME
     try:
-        before = json.loads(record.read_text())
-    except (OSError, ValueError):
+        before = json.loads(record.read_text()).get("stamps")
+    except (OSError, ValueError, AttributeError):  # none yet, or not a record
         before = None
-    if isinstance(before, dict) and before.get("stamps") == stamps:
+    if before == stamps:
         return []
+    before = before if isinstance(before, dict) else {}  # no record: all changed
     own = {name: path for name, path in files.items()
            if name == package or name.startswith(package + ".")}
-    changed = set(stamps) if not isinstance(before, dict) else {
-        name for name in stamps if before.get("stamps", {}).get(name) != stamps[name]}
+    changed = {name for name in stamps if before.get(name) != stamps[name]}
     stale = stale_modules(own, files, changed)
     removed = [name for name in stale if _delete_caches(files[name])]
     record.parent.mkdir(exist_ok=True)

@@ -329,9 +329,8 @@ class Distributor:
                      previous: ArrayLike | None) -> RealtimeResult:
         """A stream on the compiled DAQP path: pose by pose, in order, each answered as
         a call with that pose alone would answer it (smoothed against the last optimal
-        answer, the first one against ``previous`` or the stream's last). Each pose
-        costs one compiled call; through :func:`distribute` a sequence of poses on
-        DAQP goes through the whole per-pose pipeline instead."""
+        answer, the first one against ``previous`` or the stream's last, each warm
+        started from the pose before), so that a batch answers as single calls do."""
         N, m = len(p), self._m
         if previous is not None:
             self._local.last = self._stream_start(previous)  # checked, then streamed

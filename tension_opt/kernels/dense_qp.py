@@ -36,6 +36,7 @@ from tension_opt.kernels.closed_form import (
     HEADER,
     form_terms,
     judge,
+    plain,
     pose_scales,
 )
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
@@ -267,7 +268,8 @@ def _pose_qp(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0: NDArray,
              k: int, floats: NDArray) -> tuple[int, float]:
     """Pose ``k``'s form smoothed against ``last`` and its scaled QP, written into
     ``floats`` (:func:`sequence_size`); ``(code, scale)`` as :func:`qp_build`, code
-    ``CODE_FALLBACK`` also for data that are not finite."""
+    ``CODE_FALLBACK`` also for data beyond the kernels' range (NaN, magnitudes from
+    ``closed_form.HUGE``: :func:`~tension_opt.kernels.closed_form.plain`)."""
     _, n, m = A.shape
     size = qp_size(m, n)
     o = size + 2 * m + n
@@ -277,16 +279,8 @@ def _pose_qp(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0: NDArray,
     lbs, ubs = floats[o + 4 * m + n:o + 5 * m + n], floats[o + 5 * m + n:o + 6 * m + n]
     H, f, Ad, upper, lower = qp_views(floats[:size], m, n)
     form_terms(q0[k], c0[k], lb0[k], ub0[k], smoothing, rate, last, has_last, q, c, lb, ub)
-    finite = True
-    for i in range(m):
-        finite = finite and math.isfinite(q[i]) and math.isfinite(c[i]) \
-            and not (math.isnan(lb[i]) or math.isnan(ub[i]))
-        for j in range(n):
-            finite = finite and math.isfinite(A[k, j, i])
-    for j in range(n):
-        finite = finite and math.isfinite(b[k, j])
     code, s = CODE_FALLBACK, np.nan
-    if finite:
+    if plain(A[k], b[k], lb, ub, q, c):  # data the closed form's kernels take too
         code, s = qp_build(A[k], b[k], q, c, lb, ub, rows, H, f, Ad, upper, lower)
     for i in range(m if code == 0 else 0):  # the generic solvers' bounds
         lbs[i], ubs[i] = lb[i] / s, ub[i] / s
@@ -340,7 +334,7 @@ def solve_sequence(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0: NDArr
     :func:`tension_opt.kernels.closed_form.solve_forms_sequence` does), scaled and laid
     out as :func:`qp_problem` does, solved cold (as a batch of one pose starts), and
     judged by :func:`qp_verdict`; ``last`` then takes its tensions. The run stops at the
-    first pose this does not settle (an LP, data that are not finite, DAQP without a
+    first pose this does not settle (an LP, data beyond the kernels' range, DAQP without a
     solution, an answer the verdict does not certify), for the backend to solve on its
     own form, and returns its index (N when done).
 
