@@ -17,11 +17,11 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["batch_measures", "pose_measures"]
+__all__ = ["batch_measures", "nan_max", "pose_measures"]
 
 
 @njit(cache=True, inline="always")
-def _worst(a: float, b: float) -> float:
+def nan_max(a: float, b: float) -> float:
     """The larger of two values, NaN if either is NaN (as numpy's maximum)."""
     if math.isnan(a) or math.isnan(b):
         return np.nan
@@ -48,9 +48,9 @@ def pose_measures(P: NDArray, c: NDArray, Aeq: NDArray, beq: NDArray, G: NDArray
         xi = x[i]
         lo, hi = lb[i], ub[i]
         if math.isfinite(lo):
-            worst = _worst(worst, lo - xi)
+            worst = nan_max(worst, lo - xi)
         if math.isfinite(hi):
-            worst = _worst(worst, xi - hi)
+            worst = nan_max(worst, xi - hi)
         grad = P[i] * xi + c[i]
         zi = z[i]  # in its cone: >= 0 needs a finite upper bound, <= 0 a lower
         if zi > 0.0 and not math.isfinite(hi):
@@ -72,7 +72,7 @@ def pose_measures(P: NDArray, c: NDArray, Aeq: NDArray, beq: NDArray, G: NDArray
         for i in range(k):
             row += Aeq[r, i] * x[i]
             station[i] += Aeq[r, i] * yr
-        worst = _worst(worst, abs(row))
+        worst = nan_max(worst, abs(row))
         gap += beq[r] * yr
     for r in range(g):
         row = -h[r]
@@ -82,12 +82,12 @@ def pose_measures(P: NDArray, c: NDArray, Aeq: NDArray, beq: NDArray, G: NDArray
         for i in range(k):
             row += G[r, i] * x[i]
             station[i] += G[r, i] * mr
-        worst = _worst(worst, row)
+        worst = nan_max(worst, row)
         gap += h[r] * mr
     stationarity = 0.0
     for i in range(k):
-        stationarity = _worst(stationarity, abs(station[i]))
-    relative = abs(gap) / _worst(1.0, abs(objective))
+        stationarity = nan_max(stationarity, abs(station[i]))
+    relative = abs(gap) / nan_max(1.0, abs(objective))
     if not solved:
         worst = stationarity = relative = np.nan
     # One return (see tension_opt.kernels): the arrays' reference counts pruned.
