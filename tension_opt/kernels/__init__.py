@@ -46,6 +46,9 @@ itself, outside the inlined steps, and takes its arrays as arguments.
 - :mod:`tension_opt.kernels.certified`: the closed form of independent poses with its
   diagnostics and certificate, pose by pose, from the one-pose functions of the
   modules above (the certified path of large batches, :mod:`tension_opt.fused`);
+- :mod:`tension_opt.kernels.lanes`, :mod:`tension_opt.kernels.lane_steps`: the same
+  for a point robot on four cables, poses side by side in the vector unit, bit for bit
+  the pose-by-pose loop;
 - :mod:`tension_opt.kernels.launch`: when a batch kernel runs in parallel (large
   batches, one launch at a time, never in a forked child of an OpenMP process).
 """
