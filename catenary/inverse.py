@@ -269,20 +269,46 @@ def _coupled(robot: CableRobot, poses: FloatArray, planes: CablePlanes,
              options: dict[str, Any]) -> CatenarySolution:
     """The coupled model from the straight-line distribution ``straight`` (see
     :func:`inverse_kinematics`); ``cable`` is ``(w, EA)``."""
-    tensions, attempt = _coupled_start(robot, poses, straight, initial_tensions, wrench,
-                                       backend, dict(options, tol=tol, max_iter=max_iter))
+    tensions, attempt, unsettled = _coupled_start(
+        robot, poses, straight, initial_tensions, wrench, backend,
+        dict(options, tol=tol, max_iter=max_iter))
     chosen = backend if isinstance(backend, Backend) else get_backend(straight.backend)
-    return CoupledSolver(robot, poses, planes, as_problem(objective), chosen,
+    problem = as_problem(objective)
+    if unsettled.any():
+        # The margin search settled nothing for these poses, which says nothing about
+        # their feasibility: they start from the home pose's answer (as CoupledIK does),
+        # so that "infeasible" is the iteration's verdict, never "not attempted".
+        home = _home_tensions(robot, planes, problem, chosen, cable, tol, max_iter, options)
+        if home is not None:
+            tensions = np.where(unsettled[:, None], home, tensions)
+            attempt = attempt | unsettled
+    return CoupledSolver(robot, poses, planes, problem, chosen,
                          robot.required_wrench(poses, wrench), cable, tol=tol,
                          max_iter=max_iter, options=options).solve(tensions, attempt)
+
+
+def _home_tensions(robot: CableRobot, planes: CablePlanes, problem: Any, backend: Backend,
+                   cable: tuple[float, float], tol: float, max_iter: int,
+                   options: dict[str, Any]) -> FloatArray | None:
+    """Platform-end tensions (m,) of the coupled model at the robot's home pose, from
+    its straight-line distribution; None where that does not converge."""
+    home = robot.default_home()[None, :]
+    straight = tension_opt.distribute(robot, home, problem, backend, **options)
+    if not straight.success[0]:
+        return None
+    solution = CoupledSolver(robot, home, cable_planes(robot, home), problem, backend,
+                             robot.required_wrench(home, None), cable, tol=tol,
+                             max_iter=max_iter, options=options).solve(
+        straight.tensions, straight.success.copy())
+    return solution.tensions[0] if solution.status[0] == Status.CONVERGED else None
 
 
 def _coupled_start(robot: CableRobot, poses: FloatArray, straight: TensionSolution,
                    initial_tensions: ArrayLike | None, wrench: ArrayLike | None,
                    backend: str | Backend, options: dict[str, Any]
-                   ) -> tuple[FloatArray, NDArray[np.bool_]]:
-    """Platform-end tensions (N, m) to start the coupled model from, and the poses to
-    attempt (N,).
+                   ) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]]:
+    """Platform-end tensions (N, m) to start the coupled model from, the poses to
+    attempt (N,), and the poses whose margin search settled nothing (N,).
 
     The straight-line distribution, replaced by the finite rows of ``initial_tensions``
     when given; else, where no straight-line tensions fit the bounds, by the tensions
@@ -291,10 +317,11 @@ def _coupled_start(robot: CableRobot, poses: FloatArray, straight: TensionSoluti
     """
     N, m = poses.shape[0], robot.m
     tensions, attempt = straight.tensions, straight.success.copy()
+    unsettled = np.zeros(N, dtype=bool)
     if initial_tensions is not None:
         start = np.broadcast_to(np.asarray(initial_tensions, dtype=float), (N, m))
     elif attempt.all():
-        return tensions, attempt
+        return tensions, attempt, unsettled
     else:
         idx = np.flatnonzero(~attempt)
         start = np.full((N, m), np.nan)
@@ -307,8 +334,9 @@ def _coupled_start(robot: CableRobot, poses: FloatArray, straight: TensionSoluti
         slack = 1e-9 * np.nanmax(np.abs(T_m), axis=1, initial=0.0)
         found = (m_status == Status.CONVERGED) & (margin >= -slack)
         start[idx[found]] = T_m[found]
+        unsettled[idx[m_status != Status.CONVERGED]] = True
     given = np.isfinite(start).all(axis=1)
-    return np.where(given[:, None], start, tensions), attempt | given
+    return np.where(given[:, None], start, tensions), attempt | given, unsettled
 
 
 def _thesis(planes: CablePlanes, tensions: FloatArray, straight_status: NDArray[np.str_],
