@@ -105,7 +105,7 @@ def turned(attachments: NDArray, i: int) -> tuple[float, float, float]:
 
 @njit(cache=True, error_model="numpy", inline="always")
 def geometry_step(S: NDArray, anchors: tuple, offsets: tuple, weight: float,
-              zero_length: float) -> None:
+                  zero_length: float) -> None:
     """:func:`~tension_opt.kernels.geometry.geometry_into` of a point robot and
     :func:`~tension_opt.kernels.closed_form.plain`'s check of the pose's data
     (``offsets``: the attachment points turned by the identity, as there)."""
@@ -160,7 +160,7 @@ def _beyond_slack(lo: float, hi: float, nn: float, u00: float, u01: float, u02: 
 
 @njit(cache=True, error_model="numpy", inline="always")
 def point4_step(S: NDArray, lb: tuple, ub: tuple, q: tuple, c: tuple, quadratic: bool,
-            top_lb: float) -> None:
+                top_lb: float) -> None:
     """:func:`~tension_opt.kernels.closed_form.point4`, a settled feasible pose's
     tensions, an infeasible pose's line."""
     for lane in range(LANES):
@@ -232,9 +232,8 @@ def point4_step(S: NDArray, lb: tuple, ub: tuple, q: tuple, c: tuple, quadratic:
 
 @njit(cache=True, error_model="numpy", inline="always")
 def measure_step(S: NDArray, lb: tuple, ub: tuple, q: tuple, ct: tuple, w: tuple,
-                       r: tuple, linear: bool, quadratic: bool, top_lb: float,
-                       top_ub: float, ub_share: float, row_floor: float,
-                       tol_factor: float) -> None:
+                 r: tuple, linear: bool, quadratic: bool, top_lb: float, top_ub: float,
+                 ub_share: float, row_floor: float, tol_factor: float) -> None:
     """``_measured`` of :mod:`~tension_opt.kernels.certified` (residual, bound violation,
     objective), :func:`~tension_opt.kernels.scaling.pose_scaled` (no min-max term),
     ``_lifted`` and the tolerance of the status (``pose_scales``); ``ct`` is ``c /
