@@ -278,7 +278,7 @@ def _coupled(robot: CableRobot, poses: FloatArray, planes: CablePlanes,
         # The margin search settled nothing for these poses, which says nothing about
         # their feasibility: they start from the home pose's answer (as CoupledIK does),
         # so that "infeasible" is the iteration's verdict, never "not attempted".
-        home = _home_tensions(robot, planes, problem, chosen, cable, tol, max_iter, options)
+        home = _home_tensions(robot, problem, chosen, cable, tol, max_iter, options)
         if home is not None:
             tensions = np.where(unsettled[:, None], home, tensions)
             attempt = attempt | unsettled
@@ -287,7 +287,7 @@ def _coupled(robot: CableRobot, poses: FloatArray, planes: CablePlanes,
                          max_iter=max_iter, options=options).solve(tensions, attempt)
 
 
-def _home_tensions(robot: CableRobot, planes: CablePlanes, problem: Any, backend: Backend,
+def _home_tensions(robot: CableRobot, problem: Any, backend: Backend,
                    cable: tuple[float, float], tol: float, max_iter: int,
                    options: dict[str, Any]) -> FloatArray | None:
     """Platform-end tensions (m,) of the coupled model at the robot's home pose, from

@@ -204,7 +204,7 @@ def certified_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray
     once per call, so that nothing per pose leaves the caches but its results. A point
     robot on four cables without a min-max term runs them on blocks of poses side by
     side (:func:`tension_opt.kernels.lanes.lane_poses`, the same answers to the last
-    bit, about 3x faster), the poses it leaves pose by pose.
+    bit, about 5x faster), the poses it leaves pose by pose.
 
     Parameters
     ----------
