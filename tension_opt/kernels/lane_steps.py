@@ -21,6 +21,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from tension_opt.kernels.closed_form import HUGE
 from tension_opt.kernels.lowdim import FEAS_TOL, FLAT_TOL
 from tension_opt.kernels.measures import nan_max
 
@@ -36,7 +37,6 @@ LANES = 16
 #: Code of a pose the caller solves pose by pose.
 REDO = 9
 _HUGE = np.finfo(np.float64).max
-_HUGE_DATA = 1e150  # tension_opt.kernels.closed_form.HUGE (plain data)
 
 # Fields of the work array (see the module docstring).
 (F_P0, F_P1, F_P2, F_W0, F_W1, F_W2, F_B0, F_B1, F_B2, F_GOOD, F_INFEASIBLE, F_UNIQUE,
@@ -121,15 +121,15 @@ def geometry_step(S: NDArray, anchors: tuple, offsets: tuple, weight: float,
             length = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
             good = good and math.isfinite(length) and length > zero_length
             u0, u1, u2 = v0 / length, v1 / length, v2 / length
-            good = good and abs(u0) < _HUGE_DATA and abs(u1) < _HUGE_DATA and abs(
-                u2) < _HUGE_DATA
+            good = good and abs(u0) < HUGE and abs(u1) < HUGE and abs(
+                u2) < HUGE
             S[at(F_A + i, lane)] = u0
             S[at(F_A + 4 + i, lane)] = u1
             S[at(F_A + 8 + i, lane)] = u2
         b0 = 0.0 - S[at(F_W0, lane)] + 0.0
         b1 = 0.0 - S[at(F_W1, lane)] + 0.0
         b2 = weight - S[at(F_W2, lane)] + 0.0
-        good = good and abs(b0) < _HUGE_DATA and abs(b1) < _HUGE_DATA and abs(b2) < _HUGE_DATA
+        good = good and abs(b0) < HUGE and abs(b1) < HUGE and abs(b2) < HUGE
         S[at(F_B0, lane)], S[at(F_B1, lane)], S[at(F_B2, lane)] = b0, b1, b2
         S[at(F_GOOD, lane)] = 1.0 if good else 0.0
 

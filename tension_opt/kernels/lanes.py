@@ -12,7 +12,7 @@ float range, a null vector with a zero entry, a pose within the slack of
 infeasibility, a certificate that needs the sign-constrained refit, a singular fit)
 is marked :data:`REDO`: the caller solves it pose by pose. An infeasible pose is
 finished here, its distance to feasibility by
-:func:`~tension_opt.kernels.lowdim.infeasibility_1d`, pose by pose as well.
+:func:`~tension_opt.kernels.closed_form.point4_distance`, pose by pose as well.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from tension_opt.kernels.closed_form import plain, point4_distance
 from tension_opt.kernels.lane_steps import (
     F_CODE,
     F_DUAL,
@@ -53,12 +54,8 @@ from tension_opt.kernels.lane_steps import (
     point4_step,
     turned,
 )
-from tension_opt.kernels.lowdim import infeasibility_1d
 
 __all__ = ["LANES", "REDO", "lane_poses"]
-
-_HUGE_DATA = 1e150  # tension_opt.kernels.closed_form.HUGE (plain data)
-
 
 @njit(cache=True, error_model="numpy")
 def _constants(data: NDArray, views: tuple) -> tuple:
@@ -80,13 +77,11 @@ def _constants(data: NDArray, views: tuple) -> tuple:
     c = (cv[0], cv[1], cv[2], cv[3])
     w = (wv[0], wv[1], wv[2], wv[3])
     r = (rv[0], rv[1], rv[2], rv[3])
-    plain = True
+    # closed_form.plain's test of the per-cable data (the pose's are the blocks')
+    plain_data = plain(np.empty((0, 4)), np.empty(0), lbv, ubv, qv, cv)
     quadratic = False
     top_lb = top_ub = big_q = big_c = 0.0
     for i in range(4):
-        plain = plain and abs(q[i]) < _HUGE_DATA and abs(c[i]) < _HUGE_DATA
-        plain = plain and (abs(lb[i]) < _HUGE_DATA or lb[i] == -np.inf) and (
-            abs(ub[i]) < _HUGE_DATA or ub[i] == np.inf)
         quadratic = quadratic or q[i] != 0.0
         if math.isfinite(lb[i]):
             top_lb = fmax(top_lb, abs(lb[i]))
@@ -97,16 +92,8 @@ def _constants(data: NDArray, views: tuple) -> tuple:
     top = big_q if big_q > 0.0 else (big_c if big_c > 0.0 else 1.0)  # pose_scaling's
     P = (q[0] / top, q[1] / top, q[2] / top, q[3] / top)
     ct = (c[0] / top, c[1] / top, c[2] / top, c[3] / top)
-    return (anchors, offs, lb, ub, q, c, w, r, P, ct, (plain, quadratic),
+    return (anchors, offs, lb, ub, q, c, w, r, P, ct, (plain_data, quadratic),
             (data[3], data[4], data[6], top_lb, top_ub))
-
-
-@njit(cache=True, error_model="numpy")
-def _distance(line: NDArray, lb: NDArray, ub: NDArray) -> float:
-    """Distance to feasibility of an infeasible pose on its line ``line[:4] + t
-    line[4:8]`` (:func:`~tension_opt.kernels.closed_form.point4_distance`; the rest of
-    ``line`` work space)."""
-    return infeasibility_1d(line[:4], line[4:8], lb, ub, line[8:])
 
 
 @njit(cache=True, error_model="numpy")
@@ -164,14 +151,16 @@ def lane_poses(data: NDArray, views: tuple[NDArray, ...], target: float, code: i
     objective, residual, violation, infeasibility, primal, dual, gap = measured
     lbv, ubv = views[6], views[7]
     anchors, offs, lb, ub, q, c, w, r, P, ct, flags, numbers = _constants(data, views)
-    plain, quadratic = flags
+    plain_data, quadratic = flags
     weight, zero_length, tol_factor, top_lb, top_ub = numbers
     # The work array on a cache line's start (64 bytes): no vector read of a field
     # spans two lines.
     room = np.empty(FIELDS * LANES + 8)
     skip = (-room.ctypes.data % 64) // 8
     S = room[skip:skip + FIELDS * LANES]
-    line = np.empty(24)  # an infeasible pose's line and infeasibility_1d's work
+    # An infeasible pose's line where point4 leaves it (particular solution at 9, null
+    # vector at 13), and point4_distance's work after it.
+    line = np.empty(33)
     N = poses.shape[0]
     redo = 0
     for start in range(0, N, LANES):
@@ -184,13 +173,13 @@ def lane_poses(data: NDArray, views: tuple[NDArray, ...], target: float, code: i
         certify_step(S, P, target)
         for lane in range(fmin(LANES, N - start)):
             p = start + lane
-            if not (plain and S[at(F_GOOD, lane)] != 0.0):
+            if not (plain_data and S[at(F_GOOD, lane)] != 0.0):
                 codes[p] = REDO
                 redo += 1
             elif S[at(F_INFEASIBLE, lane)] != 0.0:
                 for i in range(4):
-                    line[i], line[4 + i] = S[at(F_TP + i, lane)], S[at(F_N + i, lane)]
-                distance = _distance(line, lbv, ubv)
+                    line[9 + i], line[13 + i] = S[at(F_TP + i, lane)], S[at(F_N + i, lane)]
+                distance = point4_distance(lbv, ubv, line)
                 _nan_row(p, rows_out, measured)
                 unique[p], infeasibility[p] = True, distance
                 codes[p] = 1
