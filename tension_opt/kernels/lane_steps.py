@@ -27,7 +27,7 @@ from tension_opt.kernels.measures import nan_max
 
 __all__ = ["FIELDS", "F_A", "F_AEQ", "F_B0", "F_B1", "F_B2", "F_BEQ", "F_CODE", "F_CS", "F_DUAL",
            "F_FIT", "F_GAP", "F_GOOD", "F_INFEASIBLE", "F_LBS", "F_N", "F_OVER", "F_P0", "F_P1",
-           "F_P2", "F_PRIMAL", "F_RES", "F_S", "F_STATION", "F_T", "F_TOL", "F_TP", "F_UBS",
+           "F_P2", "F_PRIMAL", "F_RES", "F_STATION", "F_T", "F_TOL", "F_TP", "F_UBS",
            "F_UNIQUE", "F_VALUE", "F_W0", "F_W1", "F_W2", "F_X", "F_Y", "F_Z", "LANES", "REDO",
            "at", "certify_step", "estimate_step", "fmax", "fmin", "geometry_step", "load_block",
            "measure_step", "point4_step", "turned"]
@@ -40,8 +40,8 @@ _HUGE = np.finfo(np.float64).max
 
 # Fields of the work array (see the module docstring).
 (F_P0, F_P1, F_P2, F_W0, F_W1, F_W2, F_B0, F_B1, F_B2, F_GOOD, F_INFEASIBLE, F_UNIQUE,
- F_RES, F_OVER, F_VALUE, F_S, F_TOL, F_PRIMAL, F_DUAL, F_GAP, F_CODE, F_FIT) = range(22)
-F_A = 22  # A[r, i] at F_A + 4 r + i
+ F_RES, F_OVER, F_VALUE, F_TOL, F_PRIMAL, F_DUAL, F_GAP, F_CODE, F_FIT) = range(21)
+F_A = 21  # A[r, i] at F_A + 4 r + i
 F_TP = F_A + 12  # particular solution (4)
 F_N = F_TP + 4  # null vector (4)
 F_T = F_N + 4  # tensions (4)
@@ -231,7 +231,7 @@ def point4_step(S: NDArray, lb: tuple, ub: tuple, q: tuple, c: tuple, quadratic:
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def measure_step(S: NDArray, lb: tuple, ub: tuple, q: tuple, ct: tuple, w: tuple,
+def measure_step(S: NDArray, lb: tuple, ub: tuple, ct: tuple, w: tuple,
                  r: tuple, linear: bool, quadratic: bool, top_lb: float, top_ub: float,
                  ub_share: float, row_floor: float, tol_factor: float) -> None:
     """``_measured`` of :mod:`~tension_opt.kernels.certified` (residual, bound violation,
@@ -297,8 +297,8 @@ def measure_step(S: NDArray, lb: tuple, ub: tuple, q: tuple, ct: tuple, w: tuple
             bn += b[k] * b[k]
         bn = math.sqrt(bn)
         S[at(F_TOL, lane)] = tol_factor * fmax(fmax(bn, top_lb), 1e-12)
-        S[at(F_RES, lane)], S[at(F_OVER, lane)], S[at(F_VALUE, lane)], S[at(F_S, lane)] = (
-            residual, violation, value, s)
+        S[at(F_RES, lane)], S[at(F_OVER, lane)], S[at(F_VALUE, lane)] = (
+            residual, violation, value)
         S[at(F_FIT, lane)] = 1.0 if good else 0.0
 
 

@@ -167,7 +167,7 @@ def lane_poses(data: NDArray, views: tuple[NDArray, ...], target: float, code: i
         load_block(S, poses, wrenches, start)
         geometry_step(S, anchors, offs, weight, zero_length)
         point4_step(S, lb, ub, q, c, quadratic, top_lb)
-        measure_step(S, lb, ub, q, ct, w, r, code == 0, quadratic, top_lb,
+        measure_step(S, lb, ub, ct, w, r, code == 0, quadratic, top_lb,
                      top_ub, ub_share, row_floor, tol_factor)
         estimate_step(S, P, ridge)
         certify_step(S, P, target)
