@@ -11,8 +11,10 @@ are timed in CPU time of the calling thread (``time.thread_time_ns``), so that o
 load on a shared machine counts less; the timer's own cost (about 1 us: the clock is a
 system call) is printed as the first row and included in every per-call figure.
 Batches are timed in wall time per pose (``time.perf_counter``) on one and on all numba
-threads: the median of three calls after one untimed call of the same size (the first
-call of a size in a process touches fresh memory, which costs up to twice as much).
+threads: the median of three calls after one untimed call of the same size. A plain
+call's results are fresh memory whose page faults it pays (the allocator gives large
+arrays back to the system when freed); the ``out=`` row writes into the arrays of an
+earlier result instead.
 The first-call cost (compiling the kernels, or loading them from numba's disk
 cache) is measured in fresh processes.
 """
@@ -241,12 +243,17 @@ def batch_rows(count: int) -> None:
         to.distribute(robot, poses, "min_sum", ClosedFormBackend(compiled=False))
         before = (time.perf_counter() - t0) / count * 1e9
         print(f"  {label:<11s} before: distribute, numpy closed form {before:10.1f} ns/pose")
+        earlier = to.distribute(robot, poses, "min_sum", "closed_form")
         for threads in sorted({1, chunk_threads()}):
             with _chunk_threads(threads):
                 plain = wall_per_item(
                     lambda p=poses: to.distribute(robot, p, "min_sum", "closed_form"), count)
+                reused = wall_per_item(lambda p=poses: to.distribute(
+                    robot, p, "min_sum", "closed_form", out=earlier), count)
             print(f"  {label:<11s} plain call: distribute (compiled), {threads} thread(s) "
                   f"{plain:10.1f} ns/pose  ({before / plain:.1f}x)")
+            print(f"  {label:<11s} plain call, out=earlier result, {threads} thread(s) "
+                  f"{reused:10.1f} ns/pose  ({before / reused:.1f}x)")
         for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
             numba.set_num_threads(threads)
             solver(poses[:PARALLEL_MIN])  # loads the parallel kernel before timing it

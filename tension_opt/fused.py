@@ -30,7 +30,7 @@ from tension_opt.certificate import Multipliers, accuracy_target
 from tension_opt.errors import TensionOptError
 from tension_opt.problems import TensionProblem
 from tension_opt.robot import CableRobot
-from tension_opt.solution import STATUS_DTYPE, TensionSolution
+from tension_opt.solution import STATUS_DTYPE, TensionSolution, reused_array
 
 __all__ = ["CertifiedBatch", "CertifiedPlan", "certified_plan"]
 
@@ -97,23 +97,37 @@ class CertifiedBatch:
         Validated poses.
     wrench : ndarray, shape (n,) or (N, n), optional
         Finite external wrenches (N, N m).
+    out : TensionSolution, optional
+        A solution whose C-contiguous arrays take the results (checked by
+        :func:`~tension_opt.solution.reusable`); others are allocated.
     """
 
-    def __init__(self, plan: CertifiedPlan, poses: NDArray,
-                 wrench: NDArray | None) -> None:
+    def __init__(self, plan: CertifiedPlan, poses: NDArray, wrench: NDArray | None,
+                 out: TensionSolution | None = None) -> None:
         N, m = len(poses), int(plan.data[1])
         self.plan, self.N = plan, N
         self.poses = np.ascontiguousarray(poses, dtype=float)
         w = np.zeros((1, plan.n)) if wrench is None else np.asarray(wrench, dtype=float)
         self.wrench = np.ascontiguousarray(w.reshape(-1, plan.n))
-        self.tensions = np.empty((N, m))
+
+        def array(name: str, shape: tuple[int, ...], dtype: Any = np.float64) -> NDArray:
+            # The kernel's arrays are C-contiguous; distribute copies into any other.
+            target = None if out is None else reused_array(out, name, shape, dtype)
+            if target is None or not target.flags.c_contiguous:
+                return np.empty(shape, dtype=dtype)
+            return target
+
+        self.tensions = array("tensions", (N, m))
         self.codes = np.empty(N, dtype=np.int8)
-        self.status = np.empty(N, dtype=STATUS_DTYPE)
-        self.unique = np.empty(N, dtype=bool)
-        self.measures = {name: np.empty(N) for name in _MEASURES}
+        self.status = array("status", (N,), STATUS_DTYPE)
+        self.unique = array("unique", (N,), bool)
+        self.measures = {name: array(name, (N,)) for name in _MEASURES}
         self.iterations: NDArray | None = np.zeros(N, dtype=int)
-        self.multipliers = Multipliers(np.empty((N, plan.n)), np.empty((N, plan.g)),
-                                       np.empty((N, plan.k)))
+        if out is not None and out.iterations is not None:
+            self.iterations = reused_array(out, "iterations", (N,), None)
+            self.iterations[...] = 0
+        self.multipliers = Multipliers(*(array(f"multipliers.{name}", (N, cols)) for name, cols
+                                         in (("y", plan.n), ("mu", plan.g), ("z", plan.k))))
 
     def solve(self, sl: slice) -> NDArray | slice | None:
         """Solve the poses ``sl`` by the kernel; returns the poses left to the caller

@@ -12,7 +12,8 @@ re-exported here.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -27,15 +28,21 @@ from tension_opt.certificate import (
     certify_form,
     primal_residual_of,
 )
+from tension_opt.errors import InvalidInputError
 from tension_opt.status import STATUS_DTYPE, Status, status_array
 
-__all__ = ["FEASIBILITY_TOL", "STATUS_DTYPE", "Status", "TensionSolution", "status_array"]
+__all__ = ["FEASIBILITY_TOL", "PER_POSE", "STATUS_DTYPE", "Status", "TensionSolution",
+           "reusable", "reused_array", "status_array"]
 
 if TYPE_CHECKING:
     from tension_opt.problems import StandardForm
 
 #: Relative tolerance (of the typical tension) on equilibrium and bounds of a solution.
 FEASIBILITY_TOL = 1e-6
+#: The per-pose arrays of a solution besides its multipliers (first axis: the poses).
+PER_POSE = ("tensions", "status", "unique", "objective", "residual", "bound_violation",
+            "iterations", "infeasibility", "primal_residual", "dual_residual",
+            "duality_gap")
 
 
 @dataclass(eq=False)
@@ -248,6 +255,35 @@ class TensionSolution:
         frame["backend"] = self.backend
         return frame
 
+    def written_into(self, out: TensionSolution) -> TensionSolution:
+        """This solution with its per-pose arrays copied into those of ``out``
+        (:func:`tension_opt.distribute`'s ``out=``), which it then holds; a field
+        ``out`` lacks (None) stays this solution's own array.
+
+        Raises
+        ------
+        InvalidInputError
+            If an array of ``out`` has another shape than this solution's.
+        """
+        values: dict[str, Any] = {}
+        for name in PER_POSE:
+            mine = getattr(self, name)
+            if mine is not None and getattr(out, name) is not None:
+                target = reused_array(out, name, mine.shape, None)
+                if target is not mine:
+                    target[...] = mine
+                mine = target
+            values[name] = mine
+        if self.multipliers is not None and out.multipliers is not None:
+            parts = {}
+            for name in ("y", "mu", "z"):
+                mine = getattr(self.multipliers, name)
+                parts[name] = reused_array(out, f"multipliers.{name}", mine.shape, None)
+                if parts[name] is not mine:
+                    parts[name][...] = mine
+            values["multipliers"] = Multipliers(**parts)
+        return replace(self, **values)
+
     def __repr__(self) -> str:
         counts = pd.Series([str(s) for s in self.status]).value_counts().to_dict()
         return (
@@ -256,6 +292,62 @@ class TensionSolution:
             f"max_residual={np.nanmax(self.residual, initial=0.0):.3g})"
         )
 
+
+def reusable(out: object, N: int, m: int, inputs: Sequence[object]) -> TensionSolution:
+    """``out`` (:func:`tension_opt.distribute`'s ``out=``) checked to take the results
+    of ``N`` poses of ``m`` cables: a :class:`TensionSolution` whose arrays are
+    writeable, of ``N`` rows and share no memory with ``inputs``.
+
+    Raises
+    ------
+    InvalidInputError
+        Naming ``out`` (or its field) and what to pass instead.
+    """
+    if not isinstance(out, TensionSolution):
+        raise InvalidInputError(f"out must be a TensionSolution (a result of distribute) or "
+                                f"None, got {type(out).__name__}")
+    reused_array(out, "tensions", (N, m), np.float64)
+    arrays = [(name, getattr(out, name)) for name in PER_POSE]
+    if out.multipliers is not None:
+        arrays += [(f"multipliers.{k}", getattr(out.multipliers, k)) for k in ("y", "mu", "z")]
+    for name, array in arrays:
+        if array is None:
+            continue
+        if not (isinstance(array, np.ndarray) and array.flags.writeable
+                and len(array) == N):
+            raise InvalidInputError(
+                f"out.{name} must be a writeable array of {N} rows: pass a solution "
+                "distribute returned for as many poses, or out=None")
+        for given in inputs:
+            if isinstance(given, np.ndarray) and np.may_share_memory(array, given):
+                raise InvalidInputError(
+                    f"out.{name} shares memory with an input of the call: pass inputs that "
+                    "are not out's arrays (a copy), or out=None")
+    return out
+
+
+def reused_array(out: TensionSolution, name: str, shape: tuple[int, ...],
+                 dtype: type | np.dtype | None) -> NDArray:
+    """The array ``name`` of ``out`` (``"multipliers.mu"`` for a member of its
+    multipliers), checked to have ``shape`` and ``dtype`` (None: any).
+
+    Raises
+    ------
+    InvalidInputError
+        If it has another shape or dtype, or is missing.
+    """
+    array: Any = out
+    for part in name.split("."):
+        array = getattr(array, part, None)
+    if (not isinstance(array, np.ndarray) or array.shape != tuple(shape)
+            or (dtype is not None and array.dtype != np.dtype(dtype))):
+        found = (f"shape {array.shape}, dtype {array.dtype}" if isinstance(array, np.ndarray)
+                 else "None")
+        wanted = f"shape {tuple(shape)}" + ("" if dtype is None else f", dtype {np.dtype(dtype)}")
+        raise InvalidInputError(
+            f"out.{name} has {found}, this call's results have {wanted}: pass the result of "
+            "a call on as many poses of the same robot and problem, or out=None")
+    return array
 
 
 def _solutions(tensions: NDArray, status: NDArray) -> tuple[NDArray, NDArray, NDArray]:
