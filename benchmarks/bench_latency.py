@@ -248,8 +248,8 @@ def batch_rows(count: int) -> None:
             with _chunk_threads(threads):
                 plain = wall_per_item(
                     lambda p=poses: to.distribute(robot, p, "min_sum", "closed_form"), count)
-                reused = wall_per_item(lambda p=poses: to.distribute(
-                    robot, p, "min_sum", "closed_form", out=earlier), count)
+                reused = wall_per_item(lambda p=poses, into=earlier: to.distribute(
+                    robot, p, "min_sum", "closed_form", out=into), count)
             print(f"  {label:<11s} plain call: distribute (compiled), {threads} thread(s) "
                   f"{plain:10.1f} ns/pose  ({before / plain:.1f}x)")
             print(f"  {label:<11s} plain call, out=earlier result, {threads} thread(s) "

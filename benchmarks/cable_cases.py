@@ -1,5 +1,6 @@
-"""A sweep of single-cable cases (spans, slopes, weights, stiffnesses) for the catenary
-benchmark and tests: every combination of the grids below."""
+"""Single-cable cases for the catenary benchmark and tests: a sweep of spans, slopes,
+weights and stiffnesses (every combination of the grids below), and random inverse
+problems."""
 
 from __future__ import annotations
 
@@ -36,3 +37,17 @@ def sweep() -> dict[str, np.ndarray]:
     x = np.where(ang == -np.pi / 2, 0.0, x)
     z = c * np.sin(ang)
     return {"x": x, "z": z, "L0": ratio * np.hypot(x, z), "w": w, "EA": EA}
+
+
+def random_cables(seed: int, count: int = 200) -> tuple[np.ndarray, ...]:
+    """Inverse problems ``(x, z, T, w, EA)`` (m, m, N, N/m, N), ``count`` of each, from
+    taut to heavily sagging, steep, downhill, weightless, inextensible; some tensions
+    too small to hold the cable, and the first five cables vertical (``x = 0``)."""
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(0.1, 80.0, count)
+    z = rng.uniform(-40.0, 40.0, count)
+    w = rng.choice([0.0, 0.05, 1.0, 20.0], count) * rng.uniform(0.5, 2.0, count)
+    T = 10.0 ** rng.uniform(0.0, 5.0, count)
+    EA = rng.choice([np.inf, 1e5, 1e8], count)
+    x[:5] = 0.0
+    return x, z, T, w, EA

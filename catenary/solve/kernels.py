@@ -15,8 +15,10 @@ forms and bracketing searches cover every case; data the numpy path rejects get
 :data:`INVALID`. Over a batch, :func:`solve_length_cables` also decides the cables
 whose tension no catenary through both ends carries (:data:`INFEASIBLE`) and finds the
 taut root of the ones Newton leaves, from the family of cables with that end tension
-(:mod:`catenary.solve.kernels_bracket`). This module (and that one) import numpy and
-numba only; numba compiles them on first use and keeps the machine code on disk
+(:mod:`catenary.solve.kernels_bracket`); it runs groups of cables side by side in the
+vector unit (:mod:`catenary.solve.kernels_lanes`), each cable getting the bits of the
+one-at-a-time kernel (:func:`solve_length_cables_scalar`). These modules import numpy
+and numba only; numba compiles them on first use and keeps the machine code on disk
 (``cache=True``; numba checks a cached function against its own module only, so a
 change to ``kernels_bracket`` alone needs this module's cache cleared).
 """
@@ -31,6 +33,48 @@ from numpy.typing import NDArray
 
 from .kernels_bracket import FEASIBLE, family_decision
 from .kernels_bracket import INFEASIBLE as NO_MEMBER
+from .kernels_lanes import CONVERGED as LANE_CONVERGED
+from .kernels_lanes import DONE as LANE_DONE
+from .kernels_lanes import (
+    F_CODE,
+    F_DECIDE,
+    F_ELL,
+    F_F,
+    F_H,
+    F_IE,
+    F_ITS,
+    F_L0,
+    F_LEN,
+    F_OUT,
+    F_P,
+    F_Q,
+    F_REA,
+    F_RT,
+    F_RW,
+    F_RX,
+    F_RZ,
+    F_T,
+    F_VA,
+    F_VB,
+    F_W,
+    F_X,
+    F_Z,
+    FIELDS,
+    FINISH,
+    IDLE,
+    LANES,
+    NEWTON,
+    SCALAR,
+    SCREEN,
+    finish_lanes,
+    newton_lanes,
+    start_lanes,
+)
+from .kernels_lanes import FALLBACK as LANE_FALLBACK
+from .kernels_lanes import INFEASIBLE as LANE_INFEASIBLE
+from .kernels_lanes import INVALID as LANE_INVALID
+from .kernels_lanes import IRREGULAR as LANE_IRREGULAR
+from .kernels_lanes import at as lane_at
 from .kernels_spans import (
     EPS,
     RES_TOL,
@@ -49,7 +93,8 @@ from .kernels_spans import (
 __all__ = ["CONVERGED", "FALLBACK", "INFEASIBLE", "INVALID", "PARALLEL_FROM", "hypot",
            "solve_forces_batch", "solve_forces_cables", "solve_forces_cables_parallel",
            "solve_forces_one", "solve_length_cables", "solve_length_cables_parallel",
-           "solve_length_one", "solve_length_serial", "spans_one"]
+           "solve_length_cables_scalar", "solve_length_one", "solve_length_serial",
+           "spans_one"]
 
 #: Codes of the solvers: certified, to be solved by the numpy path, invalid data, no
 #: catenary through both ends carries the prescribed tension.
@@ -86,12 +131,6 @@ def _initial(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float
 _GO_ON, _DONE, _STOPPED, _IRREGULAR = 0, 1, 2, 3
 #: :func:`_length_start`'s code of data for Newton.
 _NEWTON = -1
-#: Cables whose Newton steps run interleaved in a batch (:func:`_length_block`). A
-#: step is one chain of dependent divisions, square roots and an ``asinh``, whose
-#: latency bounds one cable at a time; the core overlaps the chains of independent
-#: cables (measured, one thread: 1.4x on cables of one kind, 1.1x on a mix whose
-#: branches the core mispredicts, where 4 lanes do worse).
-LANES = 2
 #: Cables per parallel task of :func:`solve_length_cables_parallel`.
 _BLOCK = 256
 
@@ -177,7 +216,7 @@ def solve_length_one(at_b: bool, x: float, z: float, T: float, w: float, inv_EA:
     return code
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _length_values(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float,
                    rtol: float, max_iter: int, decide: bool
                    ) -> tuple[int, float, float, float, float, int]:
@@ -219,7 +258,7 @@ def _length_start(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: fl
     return _NEWTON, ell, F, xs, zs, Ts, ws, ies, decide
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _length_finish(at_b: bool, xs: float, zs: float, Ts: float, ws: float, ies: float,
                    ell: float, F: float, p: float, q: float, l0: float, converged: bool,
                    its: int, regular: bool, decide: bool, rtol: float, max_iter: int
@@ -287,6 +326,27 @@ def solve_length_cables(at_b: bool, x: NDArray, z: NDArray, T: NDArray, w: NDArr
                          out.shape[1])
 
 
+@njit(cache=True, error_model="numpy")
+def solve_length_cables_scalar(at_b: bool, x: NDArray, z: NDArray, T: NDArray,
+                               w: NDArray, EA: NDArray, rtol: float, max_iter: int,
+                               out: NDArray, ints: NDArray) -> int:
+    """:func:`solve_length_cables` one cable at a time, without the vector unit's
+    lockstep (the reference its side-by-side steps are tested against, bit for bit)."""
+    unsettled = 0
+    for k in range(out.shape[1]):
+        xk, zk, Tk, wk, EAk = at(x, k), at(z, k), at(T, k), at(w, k), at(EA, k)
+        if not valid(xk, zk, Tk, wk, EAk, True):
+            ints[0, k], ints[1, k] = INVALID, 0
+            unsettled += 1
+            continue
+        code, H, V_B, V_A, L0, its = _length_values(at_b, xk, zk, Tk, wk, 1.0 / EAk, rtol,
+                                                    max_iter, True)
+        ints[0, k], ints[1, k] = code, its
+        out[0, k], out[1, k], out[2, k], out[3, k] = H, V_B, V_A, L0
+        unsettled += 0 if code == CONVERGED else 1
+    return unsettled
+
+
 @njit(cache=True, error_model="numpy", parallel=True)
 def solve_length_cables_parallel(at_b: bool, x: NDArray, z: NDArray, T: NDArray,
                                  w: NDArray, EA: NDArray, rtol: float, max_iter: int,
@@ -310,74 +370,69 @@ def _length_block(at_b: bool, x: NDArray, z: NDArray, T: NDArray, w: NDArray,
                   EA: NDArray, rtol: float, max_iter: int, out: NDArray, ints: NDArray,
                   start: int, stop: int) -> int:
     """Cables ``start .. stop - 1`` of :func:`solve_length_cables`, in groups of
-    :data:`LANES`; returns how many are not :data:`CONVERGED`.
+    :data:`~catenary.solve.kernels_lanes.LANES` side by side in the vector unit
+    (:mod:`catenary.solve.kernels_lanes`: start, Newton, certificate); returns how many
+    are not :data:`CONVERGED`.
 
-    Each cable goes through the arithmetic of :func:`_length_values` (the same results
-    and iterations, bit for bit): its start, Newton, its finish; only the Newton steps
-    of a group's cables run interleaved (:func:`_lockstep`)."""
+    Each cable gets the results and iterations of :func:`_length_values`, bit for bit:
+    a lane the vector steps leave is finished, or solved from its start, by the scalar
+    code here."""
     unsettled = 0
-    data = np.empty((LANES, 8))  # x, z, T, w, inv_EA (in units), ell, F, span tolerance
-    state = np.empty((LANES, 3))  # p, q, l0
-    lane = np.empty((LANES, 4), dtype=np.int64)  # cable, decide, outcome, iterations
+    W = np.zeros(FIELDS * LANES)
     for g in range(start, stop, LANES):
-        count = 0
-        for k in range(g, min(g + LANES, stop)):
-            xk, zk, Tk, wk, EAk = at(x, k), at(z, k), at(T, k), at(w, k), at(EA, k)
-            if not valid(xk, zk, Tk, wk, EAk, True):
-                ints[0, k], ints[1, k] = INVALID, 0
-                unsettled += 1
-                continue
-            code, ell, F, xs, zs, Ts, ws, ies, decide = _length_start(
-                at_b, xk, zk, Tk, wk, 1.0 / EAk, True)
-            if code != _NEWTON:
-                ints[0, k], ints[1, k] = code, 0
-                out[0, k] = out[1, k] = out[2, k] = out[3, k] = np.nan
-                unsettled += 1
-                continue
-            state[count, 0], state[count, 1], state[count, 2] = _initial(at_b, xs, zs, Ts,
-                                                                          ws, ies)
-            data[count, 0], data[count, 1], data[count, 2] = xs, zs, Ts
-            data[count, 3], data[count, 4], data[count, 5], data[count, 6] = ws, ies, ell, F
-            data[count, 7] = RES_TOL * hypot(xs, zs)
-            lane[count, 0], lane[count, 1] = k, 1 if decide else 0
-            lane[count, 2], lane[count, 3] = _GO_ON, max_iter
-            count += 1
-        _lockstep(at_b, data, state, lane, count, rtol, max_iter)
+        count = min(LANES, stop - g)
+        for j in range(LANES):
+            k = g + min(j, count - 1)  # a short last group repeats its last cable
+            W[lane_at(F_RX, j)], W[lane_at(F_RZ, j)], W[lane_at(F_RT, j)] = (
+                at(x, k), at(z, k), at(T, k))
+            W[lane_at(F_RW, j)], W[lane_at(F_REA, j)] = at(w, k), at(EA, k)
+        start_lanes(at_b, W)
         for j in range(count):
-            outcome, k = lane[j, 2], lane[j, 0]
-            code, H, V_B, V_A, L0, its = _length_finish(
-                at_b, data[j, 0], data[j, 1], data[j, 2], data[j, 3], data[j, 4],
-                data[j, 5], data[j, 6], state[j, 0], state[j, 1], state[j, 2],
-                outcome == _DONE, lane[j, 3], outcome != _IRREGULAR, lane[j, 1] != 0,
-                rtol, max_iter)
-            ints[0, k], ints[1, k] = code, its
-            out[0, k], out[1, k], out[2, k], out[3, k] = H, V_B, V_A, L0
-            unsettled += 0 if code == CONVERGED else 1
+            if W[lane_at(F_CODE, j)] == SCREEN:
+                screen = family_decision(at_b, W[lane_at(F_X, j)], W[lane_at(F_Z, j)],
+                                         W[lane_at(F_T, j)], W[lane_at(F_W, j)],
+                                         W[lane_at(F_IE, j)], False)[0]
+                W[lane_at(F_CODE, j)] = LANE_INFEASIBLE if screen == NO_MEMBER else NEWTON
+        newton_lanes(at_b, W, rtol, max_iter)
+        finish_lanes(at_b, W)
+        for j in range(count):
+            unsettled += _lane_out(at_b, W, j, g + j, rtol, max_iter, out, ints)
     return unsettled
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _lockstep(at_b: bool, data: NDArray, state: NDArray, lane: NDArray, count: int,
-              rtol: float, max_iter: int) -> None:
-    """:func:`_newton_from` of the first ``count`` lanes of :func:`_length_block`, step
-    by step in turn (each lane's steps are its own: a lane that stops stays put).
-    ``state`` gets each lane's last point, ``lane[:, 2:4]`` its outcome (``_GO_ON``
-    where it ran out of iterations) and iterations."""
-    for its in range(1, max_iter + 1):
-        busy = False
-        for j in range(count):
-            if lane[j, 2] != _GO_ON:
-                continue
-            p, q, l0, outcome = _newton_step(
-                at_b, data[j, 0], data[j, 1], data[j, 2], data[j, 3], data[j, 4],
-                state[j, 0], state[j, 1], state[j, 2], rtol, data[j, 7])
-            state[j, 0], state[j, 1], state[j, 2] = p, q, l0
-            if outcome == _GO_ON:
-                busy = True
-            else:
-                lane[j, 2], lane[j, 3] = outcome, its
-        if not busy:
-            return
+def _lane_out(at_b: bool, W: NDArray, j: int, k: int, rtol: float, max_iter: int,
+              out: NDArray, ints: NDArray) -> int:
+    """Write the results of lane ``j`` of :func:`_length_block` (cable ``k``), solving
+    it by the scalar code where the lane says so; 1 if not :data:`CONVERGED`."""
+    code = W[lane_at(F_CODE, j)]
+    if code == LANE_INVALID:
+        ints[0, k], ints[1, k] = INVALID, 0
+        return 1
+    if code == SCALAR:
+        icode, H, V_B, V_A, L0, its = _length_values(
+            at_b, W[lane_at(F_RX, j)], W[lane_at(F_RZ, j)], W[lane_at(F_RT, j)],
+            W[lane_at(F_RW, j)], 1.0 / W[lane_at(F_REA, j)], rtol, max_iter, True)
+    elif code == FINISH:
+        outcome = W[lane_at(F_OUT, j)]
+        icode, H, V_B, V_A, L0, its = _length_finish(
+            at_b, W[lane_at(F_X, j)], W[lane_at(F_Z, j)], W[lane_at(F_T, j)],
+            W[lane_at(F_W, j)], W[lane_at(F_IE, j)], W[lane_at(F_ELL, j)],
+            W[lane_at(F_F, j)], W[lane_at(F_P, j)], W[lane_at(F_Q, j)],
+            W[lane_at(F_L0, j)], outcome == LANE_DONE, int(W[lane_at(F_ITS, j)]),
+            outcome != LANE_IRREGULAR, W[lane_at(F_DECIDE, j)] != 0.0, rtol, max_iter)
+    elif code == LANE_CONVERGED:
+        icode, its = CONVERGED, int(W[lane_at(F_ITS, j)])
+        H, V_B, V_A = W[lane_at(F_H, j)], W[lane_at(F_VB, j)], W[lane_at(F_VA, j)]
+        L0 = W[lane_at(F_LEN, j)]
+    else:  # no certificate after Newton, data the kernel leaves, or infeasible
+        icode = FALLBACK if code == LANE_FALLBACK else INFEASIBLE
+        ran = code == LANE_FALLBACK and W[lane_at(F_OUT, j)] != IDLE
+        its = int(W[lane_at(F_ITS, j)]) if ran else 0
+        H = V_B = V_A = L0 = np.nan
+    ints[0, k], ints[1, k] = icode, its
+    out[0, k], out[1, k], out[2, k], out[3, k] = H, V_B, V_A, L0
+    return 0 if icode == CONVERGED else 1
 
 
 @njit(cache=True, error_model="numpy")

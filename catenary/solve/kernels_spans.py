@@ -17,24 +17,27 @@ from numba import njit, types
 from numba.extending import overload
 from numpy.typing import NDArray
 
-__all__ = ["EPS", "RES_TOL", "T_TOL", "asinh_fast", "at", "clip", "hypot", "nanmax",
-           "power_of_two", "spans", "spans_flex", "spans_one", "valid"]
+__all__ = ["ASINH_LARGE", "EPS", "RES_TOL", "SAFE_HIGH", "SAFE_LOW", "SERIES_CUT", "T_TOL",
+           "asinh_fast", "asinh_series", "at", "clip", "g_series", "hypot", "log_fast",
+           "nanmax", "power_of_two", "spans", "spans_flex", "spans_one", "square", "valid"]
 
 RES_TOL = 1e-8
 EPS = float(np.finfo(np.float64).eps)
 T_TOL = 1e-9
-_SERIES_CUT = 0.1
+SERIES_CUT = 0.1
 _SMALLEST_NORMAL = 2.0**-1022
 _LARGEST_POWER = 2.0**1023
-_ASINHC_M1 = np.array([-1 / 6, 3 / 40, -5 / 112, 35 / 1152, -63 / 2816, 231 / 13312,
-                       -143 / 10240, 6435 / 557056])
-_G_SERIES = np.array([1 / 3, -3 / 10, 15 / 56, -35 / 144, 315 / 1408, -693 / 3328,
-                      1001 / 5120, -6435 / 34816])
+# Coefficients of the series of (asinh(u) / u - 1) / u^2 and of g(u) / u^3 in u^2
+# (asinh_series, g_series).
+_A0, _A1, _A2, _A3 = -1 / 6, 3 / 40, -5 / 112, 35 / 1152
+_A4, _A5, _A6, _A7 = -63 / 2816, 231 / 13312, -143 / 10240, 6435 / 557056
+_G0, _G1, _G2, _G3 = 1 / 3, -3 / 10, 15 / 56, -35 / 144
+_G4, _G5, _G6, _G7 = 315 / 1408, -693 / 3328, 1001 / 5120, -6435 / 34816
 
 
 #: Magnitudes between which ``sqrt(a * a + b * b)`` neither overflows nor loses the
 #: larger square to underflow (:func:`hypot`).
-_SQUARES_SAFE = (1e-150, 1e150)
+SAFE_LOW, SAFE_HIGH = 1e-150, 1e150
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -43,27 +46,46 @@ def hypot(a: float, b: float) -> float:
     squares are safe (the solves' nondimensional data always are), else libm's
     ``hypot``, a call several times as long. NaN and inf as :func:`math.hypot`."""
     big = max(abs(a), abs(b))
-    if _SQUARES_SAFE[0] < big < _SQUARES_SAFE[1]:
+    if SAFE_LOW < big < SAFE_HIGH:
         return math.sqrt(a * a + b * b)
     return math.hypot(a, b)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _poly(coeffs: NDArray, u2: float) -> float:
-    acc = coeffs[-1]
-    for k in range(coeffs.size - 2, -1, -1):
-        acc = acc * u2 + coeffs[k]
-    return acc
-
-
-#: Veltkamp's splitter of a double into two halves of 26 bits (:func:`_square`).
-_SPLIT = 2.0**27 + 1.0
-#: Arguments above which :func:`asinh_fast` calls libm (its squares would overflow).
-_ASINH_LARGE = 1e100
+def _horner(u2: float, c7: float, c6: float, c5: float, c4: float, c3: float, c2: float,
+            c1: float, c0: float) -> float:
+    """``c0 + c1 u2 + ... + c7 u2^7`` by Horner's rule."""
+    acc = c7 * u2 + c6
+    acc = acc * u2 + c5
+    acc = acc * u2 + c4
+    acc = acc * u2 + c3
+    acc = acc * u2 + c2
+    acc = acc * u2 + c1
+    return acc * u2 + c0
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _square(a: float) -> tuple[float, float]:
+def asinh_series(u2: float) -> float:
+    """``(asinh(u) / u - 1) / u^2`` by its series in ``u2 = u^2``, eight terms (for
+    ``|u| < SERIES_CUT``)."""
+    return _horner(u2, _A7, _A6, _A5, _A4, _A3, _A2, _A1, _A0)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def g_series(u2: float) -> float:
+    """``(asinh(u) - u / sqrt(1 + u^2)) / u^3`` by its series in ``u2 = u^2``, eight
+    terms (for ``|u| < SERIES_CUT``)."""
+    return _horner(u2, _G7, _G6, _G5, _G4, _G3, _G2, _G1, _G0)
+
+
+#: Veltkamp's splitter of a double into two halves of 26 bits (:func:`square`).
+_SPLIT = 2.0**27 + 1.0
+#: Arguments above which :func:`asinh_fast` calls libm (its squares would overflow).
+ASINH_LARGE = 1e100
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def square(a: float) -> tuple[float, float]:
     """``a * a`` as ``hi + lo`` exactly (Dekker's product, no fused multiply-add),
     ``|a|`` below ``1e100``."""
     hi = a * a
@@ -73,26 +95,59 @@ def _square(a: float) -> tuple[float, float]:
     return hi, ((a_hi * a_hi - hi) + 2.0 * a_hi * a_lo) + a_lo * a_lo
 
 
+#: fdlibm's ``log``: the coefficients of its polynomial in ``s = f / (2 + f)`` on ``1 +
+#: f`` in ``[1 / sqrt(2), sqrt(2))``, and ``ln 2`` in two parts (:func:`log_fast`).
+_LG1, _LG2, _LG3 = 6.666666666666735130e-01, 3.999999999940941908e-01, 2.857142874366239149e-01
+_LG4, _LG5, _LG6 = 2.222219843214978396e-01, 1.818357216161805012e-01, 1.531383769920937332e-01
+_LG7 = 1.479819860511658591e-01
+_LN2_HI, _LN2_LO = 6.93147180369123816490e-01, 1.90821492927058770002e-10
+#: Bits of a double: the exponent field, the fraction, the exponent of 1.0.
+_EXPONENT_BITS, _FRACTION_BITS, _ONE_BITS = 0x7FF0000000000000, 0x000FFFFFFFFFFFFF, 0x3FF << 52
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def log_fast(y: float) -> float:
+    """``log(y)`` of a positive normal ``y`` to within one ulp (0.83 measured against an
+    extended-precision log; libm's 0.52): fdlibm's method, written on the 64-bit
+    pattern of ``y`` so that a loop of it over many arguments becomes vector code (a
+    libm call cannot). Not for zero, subnormals, inf or NaN."""
+    bits = np.float64(y).view(np.int64)
+    k = (bits >> 52) - 1023
+    fraction = bits & _FRACTION_BITS
+    # fdlibm's split: the fraction from sqrt(2) on is taken as that of y / 2.
+    half = ((fraction >> 32) + 0x95F64) & 0x100000
+    m = np.int64(fraction | ((half ^ 0x3FF00000) << 32)).view(np.float64)
+    e = float(k + (half >> 20))
+    f = m - 1.0  # exact
+    s = f / (2.0 + f)
+    z = s * s
+    w = z * z
+    t1 = w * (_LG2 + w * (_LG4 + w * _LG6))
+    t2 = z * (_LG1 + w * (_LG3 + w * (_LG5 + w * _LG7)))
+    hfsq = 0.5 * f * f
+    return e * _LN2_HI - ((hfsq - (s * (hfsq + (t2 + t1)) + e * _LN2_LO)) - f)
+
+
 @njit(cache=True, error_model="numpy", inline="always")
 def asinh_fast(a: float) -> float:
     """``asinh(a)`` to about one ulp (as libm's), at about half its latency: the
-    series below ``_SERIES_CUT``, else ``log(y)`` of ``y = |a| + sqrt(1 + a^2)``
+    series below ``SERIES_CUT``, else ``log(y)`` of ``y = |a| + sqrt(1 + a^2)``
     plus ``y_lo / y``, ``y_lo`` the rounding errors of ``y`` found exactly (error-free
     sums and squares); libm's beyond ``1e100`` and for NaN and inf."""
     b = abs(a)
-    if b < _SERIES_CUT:
+    if b < SERIES_CUT:
         b2 = b * b
-        r = b + b * b2 * _poly(_ASINHC_M1, b2)
-    elif b < _ASINH_LARGE:
-        b2, b2_lo = _square(b)
+        r = b + b * b2 * asinh_series(b2)
+    elif b < ASINH_LARGE:
+        b2, b2_lo = square(b)
         t = 1.0 + b2  # and its error t_lo (the larger term first)
         t_lo = (((1.0 - t) + b2) if b2 < 1.0 else ((b2 - t) + 1.0)) + b2_lo
         s = math.sqrt(t)
-        s2, s2_lo = _square(s)
+        s2, s2_lo = square(s)
         s_lo = (((t - s2) - s2_lo) + t_lo) / (2.0 * s)  # sqrt(t + t_lo) - s
         y = b + s  # s > b
         y_lo = ((s - y) + b) + s_lo
-        r = math.log(y) + y_lo / y
+        r = log_fast(y) + y_lo / y
     else:
         r = math.asinh(b)
     return math.copysign(r, a)
@@ -103,8 +158,8 @@ def _g(a: float, asinh_a: float) -> float:
     """``asinh(a) - a / sqrt(1 + a^2)`` without cancellation, given ``asinh(a)`` (the
     spans computed it already)."""
     a2 = a * a
-    if abs(a) < _SERIES_CUT:
-        return a * a2 * _poly(_G_SERIES, a2)
+    if abs(a) < SERIES_CUT:
+        return a * a2 * g_series(a2)
     return asinh_a - math.copysign(1.0, a) / math.sqrt(1.0 + 1.0 / a2)
 
 
@@ -124,16 +179,16 @@ def _g_pair(H: float, V_b: float, V_a: float, spread: float, r_b: float, r_a: fl
     given ``spread = asinh(a) + asinh(b)`` and each ``r = V / T = a / sqrt(1 + a^2)``:
     a small argument's ``asinh`` by its series, the other's as the spread less that,
     so no ``asinh`` is called."""
-    small_b, small_a = V_b < _SERIES_CUT * H, V_a < _SERIES_CUT * H
+    small_b, small_a = V_b < SERIES_CUT * H, V_a < SERIES_CUT * H
     if not (small_b or small_a):
         return spread - (r_b + r_a)
     a, b = V_b / H, V_a / H
     if small_b and small_a:
-        return a * a * a * _poly(_G_SERIES, a * a) + b * b * b * _poly(_G_SERIES, b * b)
+        return a * a * a * g_series(a * a) + b * b * b * g_series(b * b)
     s, r_l = (a, r_a) if small_b else (b, r_b)  # the small one, the other's V / T
     s2 = s * s
-    ash_s = s + s * s2 * _poly(_ASINHC_M1, s2)
-    return s * s2 * _poly(_G_SERIES, s2) + ((spread - ash_s) - r_l)
+    ash_s = s + s * s2 * asinh_series(s2)
+    return s * s2 * g_series(s2) + ((spread - ash_s) - r_l)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -160,7 +215,7 @@ def spans(H: float, V_B: float, L0: float, w: float, inv_EA: float, fast: bool
     HL = H * L0
     opposite = V_A < 0.0 and V_B > 0.0
     qm1 = ash_b = ash_a = 0.0
-    if opposite and fast and H > _SQUARES_SAFE[0]:
+    if opposite and fast and H > SAFE_LOW:
         ash_b, ash_a = _spread(H, V_B, V_A, T_A, T_B), np.nan
         x_c = H / w * ash_b
     elif opposite:
@@ -168,8 +223,8 @@ def spans(H: float, V_B: float, L0: float, w: float, inv_EA: float, fast: bool
         x_c = H / w * (ash_b - ash_a)
     else:
         u = wL * rho
-        if abs(u) < _SERIES_CUT:
-            qm1 = u * u * _poly(_ASINHC_M1, u * u)
+        if abs(u) < SERIES_CUT:
+            qm1 = u * u * asinh_series(u * u)
             q = 1.0 + qm1
         else:
             q = (asinh_fast(u) if fast else math.asinh(u)) / u
@@ -244,7 +299,8 @@ def power_of_two(scale: float) -> float:
         return _LARGEST_POWER
     if not a >= _SMALLEST_NORMAL:
         return _SMALLEST_NORMAL
-    return math.ldexp(1.0, math.frexp(a)[1] - 1)
+    # The exponent field alone (no frexp call, so loops of it vectorize).
+    return np.int64(np.float64(a).view(np.int64) & _EXPONENT_BITS).view(np.float64)
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 
 import catenary
 import tension_opt as to
+from benchmarks.cable_cases import random_cables
 from catenary.elastic import axial_compliance, evaluate
 from catenary.realtime import solve_forces_compiled, solve_length_compiled
 from catenary.solve import compiled, kernels
@@ -17,19 +18,6 @@ from catenary.solve.kernels_spans import asinh_fast, spans_flex
 
 SETTINGS = settings(max_examples=40, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
-
-
-def random_cables(seed: int, count: int = 200) -> tuple[np.ndarray, ...]:
-    """Spans, tensions, weights and stiffnesses from taut to heavily sagging, steep,
-    downhill, weightless, inextensible; some tensions too small to hold the cable."""
-    rng = np.random.default_rng(seed)
-    x = rng.uniform(0.1, 80.0, count)
-    z = rng.uniform(-40.0, 40.0, count)
-    w = rng.choice([0.0, 0.05, 1.0, 20.0], count) * rng.uniform(0.5, 2.0, count)
-    T = 10.0 ** rng.uniform(0.0, 5.0, count)
-    EA = rng.choice([np.inf, 1e5, 1e8], count)
-    x[:5] = 0.0  # vertical cables: the numpy path
-    return x, z, T, w, EA
 
 
 @SETTINGS
@@ -99,7 +87,7 @@ def test_compiled_solve_length_matches_numpy(seed, end):
 
 @pytest.mark.parametrize("end", ["B", "A"])
 def test_interleaved_cables_match_each_cable_alone(end):
-    """The batch kernel runs the Newton steps of ``LANES`` cables in turn: each cable's
+    """The batch kernel runs groups of cables side by side in the vector unit: each cable's
     outcome is bit for bit that of the cable solved alone (a batch of one), over a mix
     that ends in every code (converged, infeasible, fallback, invalid) and steps."""
     x, z, T, w, EA = random_cables(7, 600)
