@@ -272,12 +272,15 @@ def batch_rows(count: int) -> None:
     before = (time.perf_counter() - t0) / count * 1e9
     warm = PARALLEL_FROM + 1  # loads the parallel kernel before timing it
     catenary.solve_length(x[:warm], zc[:warm], T[:warm], w, EA)
-    plain = wall_per_item(lambda: catenary.solve_length(x, zc, T, w, EA), count)
     solve_length_compiled(x[:warm], zc[:warm], T[:warm], w, 1e7)
-    after = wall_per_item(lambda: solve_length_compiled(x, zc, T, w, EA), count)
-    print(f"  before (compiled=False) {before:10.1f} ns/cable   plain call {plain:10.1f} "
-          f"ns/cable ({before / plain:.1f}x)   solve_length_compiled {after:10.1f} ns/cable "
-          f"({before / after:.1f}x)")
+    print(f"  before (compiled=False) {before:10.1f} ns/cable")
+    for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
+        numba.set_num_threads(threads)
+        plain = wall_per_item(lambda: catenary.solve_length(x, zc, T, w, EA), count)
+        after = wall_per_item(lambda: solve_length_compiled(x, zc, T, w, EA), count)
+        print(f"  {threads} thread(s): plain call {plain:10.1f} ns/cable ({before / plain:.1f}x)"
+              f"   solve_length_compiled {after:10.1f} ns/cable ({before / after:.1f}x)")
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
 
 
 _FIRST_CALL = """

@@ -31,50 +31,9 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
+from . import kernels_lanes as lanes
 from .kernels_bracket import FEASIBLE, family_decision
 from .kernels_bracket import INFEASIBLE as NO_MEMBER
-from .kernels_lanes import CONVERGED as LANE_CONVERGED
-from .kernels_lanes import DONE as LANE_DONE
-from .kernels_lanes import (
-    F_CODE,
-    F_DECIDE,
-    F_ELL,
-    F_F,
-    F_H,
-    F_IE,
-    F_ITS,
-    F_L0,
-    F_LEN,
-    F_OUT,
-    F_P,
-    F_Q,
-    F_REA,
-    F_RT,
-    F_RW,
-    F_RX,
-    F_RZ,
-    F_T,
-    F_VA,
-    F_VB,
-    F_W,
-    F_X,
-    F_Z,
-    FIELDS,
-    FINISH,
-    IDLE,
-    LANES,
-    NEWTON,
-    SCALAR,
-    SCREEN,
-    finish_lanes,
-    newton_lanes,
-    start_lanes,
-)
-from .kernels_lanes import FALLBACK as LANE_FALLBACK
-from .kernels_lanes import INFEASIBLE as LANE_INFEASIBLE
-from .kernels_lanes import INVALID as LANE_INVALID
-from .kernels_lanes import IRREGULAR as LANE_IRREGULAR
-from .kernels_lanes import at as lane_at
 from .kernels_spans import (
     EPS,
     RES_TOL,
@@ -378,23 +337,24 @@ def _length_block(at_b: bool, x: NDArray, z: NDArray, T: NDArray, w: NDArray,
     a lane the vector steps leave is finished, or solved from its start, by the scalar
     code here."""
     unsettled = 0
-    W = np.zeros(FIELDS * LANES)
-    for g in range(start, stop, LANES):
-        count = min(LANES, stop - g)
-        for j in range(LANES):
+    W = np.zeros(lanes.FIELDS * lanes.LANES)
+    for g in range(start, stop, lanes.LANES):
+        count = min(lanes.LANES, stop - g)
+        for j in range(lanes.LANES):
             k = g + min(j, count - 1)  # a short last group repeats its last cable
-            W[lane_at(F_RX, j)], W[lane_at(F_RZ, j)], W[lane_at(F_RT, j)] = (
+            W[lanes.at(lanes.F_RX, j)], W[lanes.at(lanes.F_RZ, j)], W[lanes.at(lanes.F_RT, j)] = (
                 at(x, k), at(z, k), at(T, k))
-            W[lane_at(F_RW, j)], W[lane_at(F_REA, j)] = at(w, k), at(EA, k)
-        start_lanes(at_b, W)
+            W[lanes.at(lanes.F_RW, j)], W[lanes.at(lanes.F_REA, j)] = at(w, k), at(EA, k)
+        lanes.start_lanes(at_b, W)
         for j in range(count):
-            if W[lane_at(F_CODE, j)] == SCREEN:
-                screen = family_decision(at_b, W[lane_at(F_X, j)], W[lane_at(F_Z, j)],
-                                         W[lane_at(F_T, j)], W[lane_at(F_W, j)],
-                                         W[lane_at(F_IE, j)], False)[0]
-                W[lane_at(F_CODE, j)] = LANE_INFEASIBLE if screen == NO_MEMBER else NEWTON
-        newton_lanes(at_b, W, rtol, max_iter)
-        finish_lanes(at_b, W)
+            if W[lanes.at(lanes.F_CODE, j)] == lanes.SCREEN:
+                screen = family_decision(at_b, W[lanes.at(lanes.F_X, j)], W[lanes.at(lanes.F_Z, j)],
+                                         W[lanes.at(lanes.F_T, j)], W[lanes.at(lanes.F_W, j)],
+                                         W[lanes.at(lanes.F_IE, j)], False)[0]
+                infeasible = screen == NO_MEMBER
+                W[lanes.at(lanes.F_CODE, j)] = lanes.INFEASIBLE if infeasible else lanes.NEWTON
+        lanes.newton_lanes(at_b, W, rtol, max_iter)
+        lanes.finish_lanes(at_b, W)
         for j in range(count):
             unsettled += _lane_out(at_b, W, j, g + j, rtol, max_iter, out, ints)
     return unsettled
@@ -405,30 +365,32 @@ def _lane_out(at_b: bool, W: NDArray, j: int, k: int, rtol: float, max_iter: int
               out: NDArray, ints: NDArray) -> int:
     """Write the results of lane ``j`` of :func:`_length_block` (cable ``k``), solving
     it by the scalar code where the lane says so; 1 if not :data:`CONVERGED`."""
-    code = W[lane_at(F_CODE, j)]
-    if code == LANE_INVALID:
+    code = W[lanes.at(lanes.F_CODE, j)]
+    if code == lanes.INVALID:
         ints[0, k], ints[1, k] = INVALID, 0
         return 1
-    if code == SCALAR:
+    if code == lanes.SCALAR:
         icode, H, V_B, V_A, L0, its = _length_values(
-            at_b, W[lane_at(F_RX, j)], W[lane_at(F_RZ, j)], W[lane_at(F_RT, j)],
-            W[lane_at(F_RW, j)], 1.0 / W[lane_at(F_REA, j)], rtol, max_iter, True)
-    elif code == FINISH:
-        outcome = W[lane_at(F_OUT, j)]
+            at_b, W[lanes.at(lanes.F_RX, j)], W[lanes.at(lanes.F_RZ, j)],
+            W[lanes.at(lanes.F_RT, j)], W[lanes.at(lanes.F_RW, j)],
+            1.0 / W[lanes.at(lanes.F_REA, j)], rtol, max_iter, True)
+    elif code == lanes.FINISH:
+        outcome = W[lanes.at(lanes.F_OUT, j)]
         icode, H, V_B, V_A, L0, its = _length_finish(
-            at_b, W[lane_at(F_X, j)], W[lane_at(F_Z, j)], W[lane_at(F_T, j)],
-            W[lane_at(F_W, j)], W[lane_at(F_IE, j)], W[lane_at(F_ELL, j)],
-            W[lane_at(F_F, j)], W[lane_at(F_P, j)], W[lane_at(F_Q, j)],
-            W[lane_at(F_L0, j)], outcome == LANE_DONE, int(W[lane_at(F_ITS, j)]),
-            outcome != LANE_IRREGULAR, W[lane_at(F_DECIDE, j)] != 0.0, rtol, max_iter)
-    elif code == LANE_CONVERGED:
-        icode, its = CONVERGED, int(W[lane_at(F_ITS, j)])
-        H, V_B, V_A = W[lane_at(F_H, j)], W[lane_at(F_VB, j)], W[lane_at(F_VA, j)]
-        L0 = W[lane_at(F_LEN, j)]
+            at_b, W[lanes.at(lanes.F_X, j)], W[lanes.at(lanes.F_Z, j)], W[lanes.at(lanes.F_T, j)],
+            W[lanes.at(lanes.F_W, j)], W[lanes.at(lanes.F_IE, j)], W[lanes.at(lanes.F_ELL, j)],
+            W[lanes.at(lanes.F_F, j)], W[lanes.at(lanes.F_P, j)], W[lanes.at(lanes.F_Q, j)],
+            W[lanes.at(lanes.F_L0, j)], outcome == lanes.DONE, int(W[lanes.at(lanes.F_ITS, j)]),
+            outcome != lanes.IRREGULAR, W[lanes.at(lanes.F_DECIDE, j)] != 0.0, rtol, max_iter)
+    elif code == lanes.CONVERGED:
+        icode, its = CONVERGED, int(W[lanes.at(lanes.F_ITS, j)])
+        H, V_B = W[lanes.at(lanes.F_H, j)], W[lanes.at(lanes.F_VB, j)]
+        V_A = W[lanes.at(lanes.F_VA, j)]
+        L0 = W[lanes.at(lanes.F_LEN, j)]
     else:  # no certificate after Newton, data the kernel leaves, or infeasible
-        icode = FALLBACK if code == LANE_FALLBACK else INFEASIBLE
-        ran = code == LANE_FALLBACK and W[lane_at(F_OUT, j)] != IDLE
-        its = int(W[lane_at(F_ITS, j)]) if ran else 0
+        icode = FALLBACK if code == lanes.FALLBACK else INFEASIBLE
+        ran = code == lanes.FALLBACK and W[lanes.at(lanes.F_OUT, j)] != lanes.IDLE
+        its = int(W[lanes.at(lanes.F_ITS, j)]) if ran else 0
         H = V_B = V_A = L0 = np.nan
     ints[0, k], ints[1, k] = icode, its
     out[0, k], out[1, k], out[2, k], out[3, k] = H, V_B, V_A, L0
