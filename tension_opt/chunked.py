@@ -88,7 +88,7 @@ def _pieces(poses: NDArray | slice, size: int) -> list[NDArray | slice]:
 
 
 def in_order(parts: list[slice], run: Callable[[slice], Any], workers: int,
-              join: Callable[[slice, Any], None]) -> None:
+             join: Callable[[slice, Any], None]) -> None:
     """``join(part, run(part))`` for each part in order, ``run`` on up to ``workers``
     threads at once (at most that many parts in flight: bounded memory). The first
     error in the order of the parts is raised, and the parts not started are dropped."""
@@ -122,7 +122,7 @@ def chunk_threads() -> int:
 
 
 def pose_rows(name: str, value: ArrayLike | None, N: int, k: int, scalar: bool = True
-               ) -> Callable[[slice], Any] | None:
+              ) -> Callable[[slice], Any] | None:
     """How to cut ``value`` (one row per pose, or one for every pose) to chunks of poses:
     a function of the chunk's slice, None for None.
 
@@ -239,7 +239,7 @@ def _rows_of(value: Any, n: int) -> bool:
 
 
 def merge_extras(total: dict[str, Any], part: dict[str, Any], where: slice | NDArray
-                  ) -> None:
+                 ) -> None:
     """Add the extras of some poses (a chunk's slice, or their indices in the batch) to
     the batch's ``total``: per-pose errors and fallbacks renumbered, messages joined,
     anything else kept from the first chunk that has it."""

@@ -176,10 +176,10 @@ def _distribute_chunks(robot: CableRobot, p: NDArray, problem: TensionProblem,
     """
     N, m = len(p), robot.m
     w_rows = pose_rows("wrench", None if wrench is None else as_finite("wrench", wrench),
-                        N, robot.dof, scalar=False)
+                       N, robot.dof, scalar=False)
     chained = problem.is_sequential and (prev is None or prev.ndim == 1)
     prev_rows = pose_rows("previous", prev if problem.is_sequential and not chained
-                           else None, N, m)
+                          else None, N, m)
     per_pose = {name: cut for name in ("t_min", "t_max", "reference")
                 if (cut := pose_rows(name, getattr(problem, name), N, m)) is not None}
     slices = slices_of(N, size)
@@ -216,7 +216,7 @@ def _distribute_chunks(robot: CableRobot, p: NDArray, problem: TensionProblem,
     # Independent poses on the compiled closed form: its kernels release the GIL, so
     # chunks run side by side in threads, joined in order (the serial loop's result).
     in_order(slices[1:], lambda sl: solve(sl, None)[0], workers,
-              lambda sl, sol: joined.add(sol, sl))
+             lambda sl, sol: joined.add(sol, sl))
     return joined.solution(problem)
 
 

@@ -122,8 +122,10 @@ class CertifiedBatch:
         self.status = array("status", (N,), STATUS_DTYPE)
         self.unique = array("unique", (N,), bool)
         self.measures = {name: array(name, (N,)) for name in _MEASURES}
-        self.iterations: NDArray | None = np.zeros(N, dtype=int)
-        if out is not None and out.iterations is not None:
+        self.iterations: NDArray | None
+        if out is None or out.iterations is None:
+            self.iterations = np.zeros(N, dtype=int)  # the closed form's: none
+        else:
             self.iterations = reused_array(out, "iterations", (N,), None)
             self.iterations[...] = 0
         self.multipliers = Multipliers(*(array(f"multipliers.{name}", (N, cols)) for name, cols

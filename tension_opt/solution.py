@@ -32,7 +32,7 @@ from tension_opt.errors import InvalidInputError
 from tension_opt.status import STATUS_DTYPE, Status, status_array
 
 __all__ = ["FEASIBILITY_TOL", "PER_POSE", "STATUS_DTYPE", "Status", "TensionSolution",
-           "reusable", "reused_array", "status_array"]
+           "per_pose_arrays", "reusable", "reused_array", "status_array"]
 
 if TYPE_CHECKING:
     from tension_opt.problems import StandardForm
@@ -43,6 +43,7 @@ FEASIBILITY_TOL = 1e-6
 PER_POSE = ("tensions", "status", "unique", "objective", "residual", "bound_violation",
             "iterations", "infeasibility", "primal_residual", "dual_residual",
             "duality_gap")
+_MULTIPLIER_PARTS = ("y", "mu", "z")
 
 
 @dataclass(eq=False)
@@ -265,24 +266,18 @@ class TensionSolution:
         InvalidInputError
             If an array of ``out`` has another shape than this solution's.
         """
-        values: dict[str, Any] = {}
-        for name in PER_POSE:
-            mine = getattr(self, name)
-            if mine is not None and getattr(out, name) is not None:
+        theirs = per_pose_arrays(out)
+        held = {}
+        for name, mine in per_pose_arrays(self).items():
+            if mine is not None and theirs.get(name) is not None:
                 target = reused_array(out, name, mine.shape, None)
                 if target is not mine:
                     target[...] = mine
                 mine = target
-            values[name] = mine
-        if self.multipliers is not None and out.multipliers is not None:
-            parts = {}
-            for name in ("y", "mu", "z"):
-                mine = getattr(self.multipliers, name)
-                parts[name] = reused_array(out, f"multipliers.{name}", mine.shape, None)
-                if parts[name] is not mine:
-                    parts[name][...] = mine
-            values["multipliers"] = Multipliers(**parts)
-        return replace(self, **values)
+            held[name] = mine
+        multipliers = None if self.multipliers is None else Multipliers(
+            *(held[f"multipliers.{k}"] for k in _MULTIPLIER_PARTS))
+        return replace(self, multipliers=multipliers, **{k: held[k] for k in PER_POSE})
 
     def __repr__(self) -> str:
         counts = pd.Series([str(s) for s in self.status]).value_counts().to_dict()
@@ -307,10 +302,7 @@ def reusable(out: object, N: int, m: int, inputs: Sequence[object]) -> TensionSo
         raise InvalidInputError(f"out must be a TensionSolution (a result of distribute) or "
                                 f"None, got {type(out).__name__}")
     reused_array(out, "tensions", (N, m), np.float64)
-    arrays = [(name, getattr(out, name)) for name in PER_POSE]
-    if out.multipliers is not None:
-        arrays += [(f"multipliers.{k}", getattr(out.multipliers, k)) for k in ("y", "mu", "z")]
-    for name, array in arrays:
+    for name, array in per_pose_arrays(out).items():
         if array is None:
             continue
         if not (isinstance(array, np.ndarray) and array.flags.writeable
@@ -324,6 +316,16 @@ def reusable(out: object, N: int, m: int, inputs: Sequence[object]) -> TensionSo
                     f"out.{name} shares memory with an input of the call: pass inputs that "
                     "are not out's arrays (a copy), or out=None")
     return out
+
+
+def per_pose_arrays(sol: TensionSolution) -> dict[str, NDArray | None]:
+    """The per-pose arrays of ``sol`` by name (:data:`PER_POSE`, then the members of its
+    multipliers as ``"multipliers.y"`` ..., where it has them)."""
+    arrays = {name: getattr(sol, name) for name in PER_POSE}
+    if sol.multipliers is not None:
+        arrays.update({f"multipliers.{k}": getattr(sol.multipliers, k)
+                       for k in _MULTIPLIER_PARTS})
+    return arrays
 
 
 def reused_array(out: TensionSolution, name: str, shape: tuple[int, ...],

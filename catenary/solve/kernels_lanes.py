@@ -38,6 +38,7 @@ from .kernels_spans import (
     log_fast,
     power_of_two,
     square,
+    valid,
 )
 
 __all__ = ["CONVERGED", "DONE", "FALLBACK", "FIELDS", "FINISH", "GO_ON", "IDLE", "INFEASIBLE",
@@ -85,6 +86,13 @@ def _fmin(a: float, b: float) -> float:
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _safe(a: float, b: float) -> bool:
+    """Whether ``kernels_spans.hypot(a, b)`` takes its square root (not libm's)."""
+    big = _fmax(abs(a), abs(b))
+    return SAFE_LOW < big < SAFE_HIGH
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _asinh(a: float) -> tuple[float, bool]:
     """:func:`~catenary.solve.kernels_spans.asinh_fast` and whether it would call libm (``|a|`` from
     ``1e100``, or NaN): both of its branches computed, the one it takes chosen."""
@@ -126,8 +134,7 @@ def _spans_lane(H: float, V_B: float, L0: float, w: float, inv_EA: float
     whether it would call libm: ``(x, z, F_xx, F_xz, F_zz, T_A, T_B, regular, redo)``."""
     wL = w * L0
     V_A = V_B - wL
-    big_a, big_b = _fmax(abs(H), abs(V_A)), _fmax(abs(H), abs(V_B))
-    safe = SAFE_LOW < big_a < SAFE_HIGH and SAFE_LOW < big_b < SAFE_HIGH
+    safe = _safe(H, V_A) and _safe(H, V_B)
     T_A = math.sqrt(H * H + V_A * V_A)
     T_B = math.sqrt(H * H + V_B * V_B)
     S, TS = V_A + V_B, T_A + T_B
@@ -222,13 +229,6 @@ def newton_lanes(at_b: bool, W: NDArray, rtol: float, max_iter: int) -> None:
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _safe(a: float, b: float) -> bool:
-    """Whether ``kernels_spans.hypot(a, b)`` takes its square root (not libm's)."""
-    big = _fmax(abs(a), abs(b))
-    return SAFE_LOW < big < SAFE_HIGH
-
-
-@njit(cache=True, error_model="numpy", inline="always")
 def start_lanes(at_b: bool, W: NDArray) -> None:
     """``kernels_spans.valid``, ``kernels._length_start`` (deciding) and
     ``kernels._initial`` of every lane from its data as given: the data in units, the
@@ -238,8 +238,7 @@ def start_lanes(at_b: bool, W: NDArray) -> None:
     for j in range(LANES):
         x, z, T, w, EA = (W[at(F_RX, j)], W[at(F_RZ, j)], W[at(F_RT, j)], W[at(F_RW, j)],
                           W[at(F_REA, j)])
-        ok = (0.0 <= x < math.inf and -math.inf < z < math.inf and T >= 0.0
-              and T < math.inf and 0.0 <= w < math.inf and EA > 0.0)
+        ok = valid(x, z, T, w, EA, True)
         inv_EA = 1.0 / EA
         taken = (x > 0.0 and T > 0.0 and 0.0 <= w < math.inf and 0.0 <= inv_EA < math.inf
                  and x - x == 0.0 and z - z == 0.0 and T - T == 0.0)
@@ -296,7 +295,7 @@ def finish_lanes(at_b: bool, W: NDArray) -> None:
         sane = (H - H == 0.0 and V_B - V_B == 0.0 and l0 - l0 == 0.0 and H >= 0.0
                 and l0 > 0.0)
         x_c, z_c, _, _, _, _, _, _, redo = _spans_lane(H, V_B, l0, ws, ies)
-        tol = RES_TOL * math.sqrt(xs * xs + zs * zs)
+        tol = W[at(F_TOL, j)]  # RES_TOL * hypot(xs, zs), from the start
         certified = tension and sane and abs(x_c - xs) <= tol and abs(z_c - zs) <= tol
         F, ell = W[at(F_F, j)], W[at(F_ELL, j)]
         Hn, V_Bn, V_An, L0n = H * F, V_B * F, V_A * F, l0 * ell
