@@ -64,7 +64,7 @@ def certified_chunks(batch: CertifiedBatch, task: int, size: int, workers: int,
             done.append((piece, sol))
         return done, elapsed
 
-    extras: dict[str, Any] = {}
+    extras: dict[str, Any] = {"accuracy_target": batch.plan.target}  # as the chunk path's
     times = [0.0, 0.0]  # setup, solve
 
     def join(sl: slice, result: tuple[Done, float]) -> None:

@@ -18,6 +18,7 @@ from tension_opt.backends.registry import (
     get_backend,
 )
 from tension_opt.backends.settings import check_options
+from tension_opt.certificate import accuracy_target
 from tension_opt.checks import as_finite, as_float_array
 from tension_opt.chunked import (
     CERTIFIED_TASK,
@@ -103,8 +104,9 @@ def distribute(
         Memory already touched saves the page faults of fresh results (10^6 study
         poses: about 0.7x the time). Not for calls running at the same time.
     **options
-        Passed to the backend: ``accuracy`` (``"default"`` or ``"high"``), ``time_limit``
-        (s), ``solver_options`` (a dict in the solver's own names), ``warm_start``,
+        Passed to the backend: ``accuracy`` (``"default"``, ``"high"`` or a number: the
+        certificate's target, the closed form's too), ``time_limit`` (s),
+        ``solver_options`` (a dict in the solver's own names), ``warm_start``,
         ``batch_size`` (:mod:`tension_opt.backends.settings`); anything else is an error.
         A warm start does not cross from one chunk to the next.
 
@@ -197,7 +199,8 @@ def _distribute_chunks(robot: CableRobot, p: NDArray, problem: TensionProblem,
             raise renumbered(error, poses) from None
 
     rows = any(np.ndim(getattr(problem, name)) == 2 for name in per_pose)  # bounds per pose
-    plan = None if rows else certified_plan(robot, problem, backend)
+    plan = None if rows else certified_plan(robot, problem, backend,
+                                                options.get("accuracy"))
     if plan is not None:
         batch = CertifiedBatch(plan, p, None if w_rows is None else w_rows(slice(None)),
                                out)
@@ -303,7 +306,9 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
     infeasibility = np.full(N, np.nan)
     forms: dict[int, StandardForm] = {}  # the poses solved on their own forms
     used = np.full((N, m), np.nan)  # what each pose was smoothed against (NaN: nothing)
-    extras: dict[str, Any] = {}
+    # The whole sequence is judged at the call's target (every backend's certificate
+    # and the closed form's judgement use the same one).
+    extras: dict[str, Any] = {"accuracy_target": accuracy_target(options.get("accuracy"))}
     setup = solve = 0.0
     last = previous
     base = _compiled_sequence(backend, problem, unsmoothed, robot, A, b, previous, options)
@@ -337,8 +342,6 @@ def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot
             extras.setdefault("fallback", {}).setdefault(name, []).append(k)
         if raw.extras.get("errors"):
             extras.setdefault("errors", {})[k] = next(iter(raw.extras["errors"].values()))
-        if "accuracy_target" in raw.extras:  # the whole sequence is judged at the target
-            extras["accuracy_target"] = raw.extras["accuracy_target"]
         unique[k] = True if raw.unique is None else raw.unique[0]
         if raw.infeasibility is not None:
             infeasibility[k] = raw.infeasibility[0]

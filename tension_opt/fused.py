@@ -50,12 +50,13 @@ class CertifiedPlan:
     k: int
 
 
-def certified_plan(robot: CableRobot, problem: TensionProblem, backend: Any
-                   ) -> CertifiedPlan | None:
+def certified_plan(robot: CableRobot, problem: TensionProblem, backend: Any,
+                   accuracy: object = None) -> CertifiedPlan | None:
     """The plan of a call of :func:`tension_opt.distribute` on a large batch of
-    independent poses whose problem has no per-pose rows (bounds, reference), or None
-    where the call does not qualify (see the module docstring). A problem or backend
-    the path would reject is None too: the path raises its own error."""
+    independent poses whose problem has no per-pose rows (bounds, reference), judged at
+    the call's ``accuracy`` option, or None where the call does not qualify (see the
+    module docstring). A problem or backend the path would reject is None too: the path
+    raises its own error."""
     from tension_opt.kernels.certified import pack_certified
     from tension_opt.kernels.geometry import compiled_kind
 
@@ -69,9 +70,8 @@ def certified_plan(robot: CableRobot, problem: TensionProblem, backend: Any
         return None
     if not (isinstance(chosen, ClosedFormBackend) and chosen.compiled):
         return None
-    # The closed form takes no accuracy option: its solutions are judged at the
-    # default target (TensionSolution.from_form without a backend's target).
-    target = accuracy_target(None)
+    # Exact to rounding, the closed form is judged at whatever target the call asks.
+    target = accuracy_target(accuracy)
     data = pack_certified(robot, problem, target)
     if data is None:
         return None

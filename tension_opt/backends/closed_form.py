@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from tension_opt.backends import lowdim
 from tension_opt.backends.base import Backend, RawResult, SequenceRun
+from tension_opt.certificate import accuracy_target
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.nullspace import RANK_TOL, min_of_max_lines, pinv_and_null, solution_set
 from tension_opt.problems import StandardForm
@@ -78,13 +79,18 @@ class ClosedFormBackend(Backend):
         return None
 
     def solve(self, form: StandardForm, **options: Any) -> RawResult:
+        """Exact solutions of ``form``; the solution judges them at the ``accuracy``
+        option's target (exact to rounding, they meet any target the form's
+        conditioning allows)."""
+        target = accuracy_target(options.get("accuracy"))
         t0 = time.perf_counter()
         if self.compiled and form.N:
             T, status, unique, infeas = self._solve_compiled(form)
         else:
             T, status, unique, infeas = self._solve_numpy(form)
         elapsed = time.perf_counter() - t0
-        return RawResult(T, status, np.zeros(form.N, dtype=int), 0.0, elapsed, unique, infeas)
+        return RawResult(T, status, np.zeros(form.N, dtype=int), 0.0, elapsed, unique, infeas,
+                         extras={"accuracy_target": target})
 
     def runs_sequences(self, options: Mapping[str, Any], smoothed: StandardForm) -> bool:
         return self.compiled

@@ -247,6 +247,34 @@ def test_poses_the_kernel_leaves_are_solved_by_the_chunk_path(
             assert [k for ks in fast.extras["fallback"].values() for k in ks] == [3, 31]
 
 
+@pytest.mark.parametrize(("accuracy", "target"), [("high", 1e-10), (1e-14, 1e-14),
+                                                  (1e-3, 1e-3)])
+def test_the_closed_form_is_judged_at_the_accuracy_asked(
+        accuracy: object, target: float, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The closed form honours ``accuracy=`` on every path (the certified pass, the
+    chunk path, one small batch, a smoothed sequence): the solution records the target
+    and a pose is optimal exactly where its three measures meet it. At the tightest
+    target some exact answers miss it by rounding and say so."""
+    robot = presets.algae_harvester()
+    poses = spread_poses(robot, 600, 5, spread=0.8)
+    solutions = list(both_paths(robot, poses, "min_sum", "closed_form", monkeypatch,
+                                chunk_size=128, accuracy=accuracy)[:2])
+    solutions.append(to.distribute(robot, poses[:50], "min_norm", "closed_form",
+                                   accuracy=accuracy))
+    solutions.append(to.distribute(robot, poses[:50], TensionProblem("min_norm",
+                                                                    smoothing=0.1),
+                                   "closed_form", accuracy=accuracy))
+    for sol in solutions:
+        assert sol.accuracy == target
+        solved = np.isin(sol.status, [to.Status.OPTIMAL, to.Status.INACCURATE])
+        met = ((sol.primal_residual <= target) & (sol.dual_residual <= target)
+               & (sol.duality_gap <= target))
+        np.testing.assert_array_equal(sol.status[solved] == to.Status.OPTIMAL, met[solved])
+        assert sol.success.sum() > (0 if target < 1e-13 else 0.9 * solved.sum())
+    if target < 1e-13:
+        assert (solutions[0].status == to.Status.INACCURATE).any()
+
+
 @pytest.mark.parametrize("objective", ["min_sum", "min_norm"])
 def test_two_threads_give_one_thread(objective: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """Chunks of the certified kernel side by side in threads, bit for bit the serial
