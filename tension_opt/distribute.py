@@ -105,7 +105,8 @@ def distribute(
         poses: about 0.7x the time). Not for calls running at the same time.
     **options
         Passed to the backend: ``accuracy`` (``"default"``, ``"high"`` or a number: the
-        certificate's target, the closed form's too), ``time_limit`` (s),
+        certificate's target, the closed form's too), ``time_limit`` (s, for each solver
+        call: one pose, or cvxpy's ``batch_size`` poses; solvers without one ignore it),
         ``solver_options`` (a dict in the solver's own names), ``warm_start``,
         ``batch_size`` (:mod:`tension_opt.backends.settings`); anything else is an error.
         A warm start does not cross from one chunk to the next.
