@@ -29,10 +29,12 @@ from .geometry import (
     cable_data,
     cable_planes,
     cable_wrench,
+    check_robot,
     equilibrium_residual,
     platform_forces,
 )
 from .solve import solve_forces
+from .solve.common import check_settings
 
 __all__ = ["ForwardKinematicsResult", "ForwardSystem", "forward_kinematics"]
 
@@ -157,6 +159,8 @@ def forward_kinematics(
     """
     if model not in ("catenary", "straight"):
         raise InvalidCableError(f'model must be "catenary" or "straight"; got model={model!r}')
+    check_robot(robot)
+    check_settings(tol, max_iter, "tol")
     L = _check_lengths(robot, lengths)
     if model == "straight":
         return _straight(robot, L, initial_poses, wrench, objective)

@@ -38,6 +38,7 @@ __all__ = [
     "cable_data",
     "cable_planes",
     "cable_wrench",
+    "check_robot",
     "equilibrium_residual",
     "extreme_tensions",
     "force_slope",
@@ -111,6 +112,15 @@ def cable_planes(robot: CableRobot, poses: NDArray) -> CablePlanes:
     chord = np.sqrt(x * x + d[..., 2] ** 2)
     return CablePlanes(geometry.position, np.asarray(geometry.rotation), geometry.arms,
                        x, d[..., 2], e_h, chord)
+
+
+def check_robot(robot: object) -> None:
+    """Raise :class:`InvalidCableError` unless ``robot`` is a
+    :class:`tension_opt.CableRobot`."""
+    if not isinstance(robot, CableRobot):
+        raise InvalidCableError(
+            f"robot must be a tension_opt.CableRobot (e.g. tension_opt.presets."
+            f"algae_harvester()); got {type(robot).__name__}")
 
 
 def cable_data(robot: CableRobot) -> tuple[float, float]:

@@ -49,11 +49,13 @@ from .geometry import (
     CablePlanes,
     cable_data,
     cable_planes,
+    check_robot,
     equilibrium_residual,
     platform_forces,
 )
 from .margin import coupled_margin
 from .solve import solve_length
+from .solve.common import check_settings, float_argument
 from .solve.compiled import new_result
 
 __all__ = ["InverseKinematicsResult", "inverse_kinematics", "thesis_result"]
@@ -219,6 +221,8 @@ def inverse_kinematics(
     t0 = time.perf_counter()
     if model not in ("thesis", "coupled"):
         raise InvalidCableError(f'model must be "thesis" or "coupled"; got model={model!r}')
+    check_robot(robot)
+    check_settings(tol, max_iter, "tol")
     if compiled and model == "thesis" and _one_pose(poses):
         result = thesis_result(thesis_solver(robot, objective, backend, options), poses,
                                wrench, t0)
@@ -303,6 +307,22 @@ def _home_tensions(robot: CableRobot, problem: Any, backend: Backend,
     return solution.tensions[0] if solution.status[0] == Status.CONVERGED else None
 
 
+def _given_start(value: ArrayLike, N: int, m: int) -> FloatArray:
+    """``initial_tensions`` as an (N, m) array, checked: platform-end tensions (N),
+    ``>= 0``, NaN where a pose has none."""
+    start = float_argument("initial_tensions", value)
+    if start.shape not in ((m,), (N, m)):
+        raise InvalidCableError(
+            f"initial_tensions must have shape ({m},) or ({N}, {m}) (platform-end tensions "
+            f"in N, one row per pose); got shape {start.shape}")
+    bad = np.isinf(start) | (start < 0)
+    if bad.any():
+        raise InvalidCableError(
+            "initial_tensions must be >= 0 and finite (NaN marks a pose without one); got "
+            f"initial_tensions={float(start[bad].flat[0])!r}")
+    return np.broadcast_to(start, (N, m))
+
+
 def _coupled_start(robot: CableRobot, poses: FloatArray, straight: TensionSolution,
                    initial_tensions: ArrayLike | None, wrench: ArrayLike | None,
                    backend: str | Backend, options: dict[str, Any]
@@ -319,7 +339,7 @@ def _coupled_start(robot: CableRobot, poses: FloatArray, straight: TensionSoluti
     tensions, attempt = straight.tensions, straight.success.copy()
     unsettled = np.zeros(N, dtype=bool)
     if initial_tensions is not None:
-        start = np.broadcast_to(np.asarray(initial_tensions, dtype=float), (N, m))
+        start = _given_start(initial_tensions, N, m)
     elif attempt.all():
         return tensions, attempt, unsettled
     else:

@@ -55,6 +55,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import InvalidCableError
+from .solve.common import float_argument
 
 __all__ = [
     "MATERIALS",
@@ -118,6 +119,9 @@ class CableMaterial:
             Use the effective rope modulus (default) instead of the material's.
         """
         area = _area(diameter)
+        if not (isinstance(g, int | float | np.integer | np.floating) and not isinstance(
+                g, bool | np.bool_) and 0.0 <= float(g) < math.inf):
+            raise InvalidCableError(f"g must be a finite number >= 0 (m/s^2); got g={g!r}")
         E = self.rope_modulus if rope else self.modulus
         return self.density * area * g, E * area
 
@@ -145,7 +149,7 @@ class CableMaterial:
 
 def _area(diameter: ArrayLike) -> NDArray[np.float64]:
     """Nominal section ``pi/4 d^2`` (m^2) of validated diameters (m)."""
-    d = np.asarray(diameter, dtype=np.float64)
+    d = float_argument("diameter", diameter)
     if np.any(~np.isfinite(d)) or np.any(d <= 0):
         raise InvalidCableError(f"diameter must be finite and > 0 (m); got {diameter!r}")
     return math.pi / 4.0 * d * d

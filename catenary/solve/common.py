@@ -34,7 +34,9 @@ __all__ = [
     "LengthResult",
     "bracketed_newton",
     "certify_spans",
+    "check_settings",
     "float_argument",
+    "in_pieces",
     "prepare",
     "selection",
     "status_array",
@@ -57,6 +59,8 @@ EPS = np.finfo(np.float64).eps
 RES_TOL = 1e-8
 #: Relative error of the prescribed tension above which a root is rejected.
 T_TOL = 1e-9
+#: Largest iteration limit a solver takes: with it every call ends in bounded time.
+MAX_ITER_CAP = 10_000
 
 
 def selection(mask: NDArray[np.bool_]) -> NDArray[np.intp] | slice:
@@ -152,13 +156,37 @@ def _check(name: str, a: FloatArray, *, positive: bool = False, allow_inf: bool 
         )
 
 
+def check_settings(tol: object, max_iter: object, tol_name: str = "rtol") -> None:
+    """Raise :class:`InvalidCableError` unless ``tol`` is a number in ``(0, 1)`` and
+    ``max_iter`` a whole number in ``[1, 10000]``: the settings that bound a solver's
+    time (a tolerance of 0, a negative or NaN one, would let it run to any limit; the
+    answers are judged by their certificates whatever the tolerance)."""
+    if not (type(tol) is float and 0.0 < tol < 1.0):
+        ok = isinstance(tol, int | float | np.integer | np.floating) and not isinstance(
+            tol, bool | np.bool_) and 0.0 < float(tol) < 1.0
+        if not ok:
+            raise InvalidCableError(
+                f"{tol_name} must be a number in (0, 1) (a relative tolerance); "
+                f"got {tol_name}={tol!r}")
+    if not (type(max_iter) is int and 1 <= max_iter <= MAX_ITER_CAP):
+        ok = isinstance(max_iter, int | np.integer) and not isinstance(
+            max_iter, bool | np.bool_) and 1 <= int(max_iter) <= MAX_ITER_CAP
+        if not ok:
+            raise InvalidCableError(
+                f"max_iter must be a whole number from 1 to {MAX_ITER_CAP}; "
+                f"got max_iter={max_iter!r}")
+
+
 def float_argument(name: str, value: ArrayLike) -> FloatArray:
     """``value`` as a float array, or :class:`InvalidCableError` naming the argument
     (strings, ragged nesting, None, objects numpy cannot read as numbers)."""
     if value is None or isinstance(value, str | bytes):
         raise InvalidCableError(f"{name} must be numbers; got {name}={value!r}")
     try:
-        return np.asarray(value, dtype=np.float64)
+        raw = np.asarray(value)
+        if raw.dtype.kind in "USV":  # text is not numbers, even where numpy reads it so
+            raise TypeError
+        return raw.astype(np.float64, copy=False)
     except (TypeError, ValueError):
         raise InvalidCableError(
             f"{name} must be a rectangular array of numbers; got {name}={value!r}"[:300]
@@ -210,6 +238,30 @@ def prepare(
         raise InvalidCableError(f"arguments do not broadcast: {exc}") from None
     flat = [np.ascontiguousarray(np.broadcast_to(a, shape)).ravel() for a in arrays]
     return shape, flat
+
+
+#: Cables per piece of a batch on the numpy path (:func:`in_pieces`).
+PIECE = 65536
+
+
+def in_pieces(solve: Callable[..., tuple[NDArray, ...]], arrays: list[FloatArray]
+              ) -> tuple[NDArray, ...]:
+    """``solve(*arrays)`` of flat per-cable arrays (n,), run on pieces of at most
+    :data:`PIECE` cables and written into result arrays of the whole batch, so that the
+    numpy path's work arrays (some tens per cable) take bounded memory whatever the
+    batch; ``solve`` returns per-cable arrays (k,) of its piece of k cables."""
+    n = arrays[0].size
+    if n <= PIECE:
+        return solve(*arrays)
+    whole: list[NDArray] = []
+    for start in range(0, n, PIECE):
+        piece = slice(start, start + PIECE)
+        part = solve(*(a[piece] for a in arrays))
+        if not whole:
+            whole = [np.empty(n, dtype=values.dtype) for values in part]
+        for into, values in zip(whole, part, strict=True):
+            into[piece] = values
+    return tuple(whole)
 
 
 # ----------------------------------------------------------------------------

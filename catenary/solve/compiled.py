@@ -101,6 +101,20 @@ def load_kernels() -> ModuleType:
     return _KERNELS[0]
 
 
+def _numbers(value: ArrayLike) -> FloatArray | None:
+    """``value`` as a float array if it holds numbers (not text, not objects), else
+    None."""
+    if isinstance(value, float):
+        return np.asarray(value)
+    if isinstance(value, str | bytes):
+        return None
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError):
+        return None
+    return raw.astype(_F64, copy=False) if raw.dtype.kind in "biuf" else None
+
+
 def flat_arguments(*args: ArrayLike) -> tuple[tuple[int, ...], int, list[FloatArray]] | None:
     """The arguments as flat float arrays for the kernels, or None where the numpy path
     must decide (shapes that do not broadcast, no cable at all: the numpy checks then
@@ -116,10 +130,8 @@ def flat_arguments(*args: ArrayLike) -> tuple[tuple[int, ...], int, list[FloatAr
         One contiguous float array per argument, of ``n`` entries or of one (an
         argument with a single value, not broadcast: the kernels read entry 0).
     """
-    try:
-        arrays = [a if type(a) is np.ndarray and a.dtype is _F64 else np.asarray(a, dtype=_F64)
-                  for a in args]
-    except (TypeError, ValueError):
+    arrays = [a if type(a) is np.ndarray and a.dtype is _F64 else _numbers(a) for a in args]
+    if any(a is None for a in arrays):
         return None  # not numbers: the numpy path's checks name the argument
     # Arrays of one shape and scalars (the usual call) skip numpy's broadcast_shapes,
     # whose cost is that of solving several cables.

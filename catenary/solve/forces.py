@@ -28,6 +28,8 @@ from .common import (
     ForcesResult,
     bracketed_newton,
     certify_spans,
+    check_settings,
+    in_pieces,
     prepare,
     selection,
     status_array,
@@ -365,7 +367,17 @@ def solve_forces_flat(
     iterations : ndarray of int, shape ``(n,)``
     converged : ndarray of bool, shape ``(n,)``
     status : ndarray of str, shape ``(n,)``
+
+    The batch is solved in pieces of bounded memory
+    (:func:`~catenary.solve.common.in_pieces`).
     """
+    return in_pieces(lambda *a: _forces_piece(*a, rtol, max_iter),  # type: ignore[return-value]
+                     [x, z, L0, w, EA])
+
+
+def _forces_piece(x: FloatArray, z: FloatArray, L0: FloatArray, w: FloatArray, EA: FloatArray,
+                  rtol: float, max_iter: int) -> tuple[FloatArray, ...]:
+    """:func:`solve_forces_flat` of one piece of the batch."""
     n = x.size
     inv_EA = axial_compliance(EA)
     H = np.full(n, np.nan)
@@ -434,10 +446,10 @@ def solve_forces(
     EA : array_like, optional
         Axial stiffness (N), ``> 0``; ``inf`` (default) for inextensible.
     rtol : float
-        Newton stops once its step is below ``rtol`` relative to the forces;
+        Newton stops once its step is below ``rtol`` (in (0, 1)) relative to the forces;
         with quadratic convergence the result is then accurate to rounding.
     max_iter : int
-        Newton iterations before the fallback takes over (and of its polish).
+        Newton iterations (1 to 10000) before the fallback takes over (and its polish).
     compiled : bool
         Whether the compiled kernels (:mod:`catenary.solve.kernels`) solve the cables
         they settle (default), the numpy path the others; False solves every cable by
@@ -467,6 +479,7 @@ def solve_forces(
     compiled kernels run the same guess, Newton and certificate per cable (in parallel
     over large batches); the first call loads them.
     """
+    check_settings(rtol, max_iter)
     if compiled:
         result = _compiled_forces(x, z, L0, w, EA, rtol, max_iter)
         if result is not None:

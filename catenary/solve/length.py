@@ -43,6 +43,8 @@ from .common import (
     FloatArray,
     LengthResult,
     certify_spans,
+    check_settings,
+    in_pieces,
     prepare,
     selection,
     status_array,
@@ -205,7 +207,14 @@ def _solve_length_flat(
     rtol: float,
     max_iter: int,
 ) -> tuple[FloatArray, ...]:
-    """:func:`solve_length` on checked flat arrays: ``(H, V_B, V_A, L0, iterations, status)``."""
+    """:func:`solve_length` on checked flat arrays: ``(H, V_B, V_A, L0, iterations, status)``,
+    in pieces of bounded memory (:func:`~catenary.solve.common.in_pieces`)."""
+    return in_pieces(lambda *a: _length_piece(end, *a, rtol, max_iter), [x, z, T, w, EA])
+
+
+def _length_piece(end: str, x: FloatArray, z: FloatArray, T: FloatArray, w: FloatArray,
+                  EA: FloatArray, rtol: float, max_iter: int) -> tuple[FloatArray, ...]:
+    """:func:`_solve_length_flat` of one piece of the batch."""
     n = x.size
     inv_EA = axial_compliance(EA)
     H, V, V_A, L = (np.full(n, np.nan) for _ in range(4))
@@ -269,7 +278,7 @@ def solve_length(
     end : {"B", "A", "H"}
         Which tension is prescribed.
     rtol, max_iter
-        Newton step tolerance and iteration limit before the fallback.
+        Newton step tolerance, in (0, 1), and iteration limit (1 to 10000).
     compiled : bool
         Whether the compiled kernels (:mod:`catenary.solve.kernels`) solve the cables
         they settle (``end`` "B" or "A"); False: the numpy reference for every cable.
@@ -285,22 +294,22 @@ def solve_length(
     Raises
     ------
     InvalidCableError
-        NaN or out-of-domain arguments, or ``end`` not one of "B", "A", "H".
+        NaN or out-of-domain arguments or settings, ``end`` not "B", "A" or "H".
 
     Notes
     -----
-    Newton on the two span equations with the tension condition built in,
-    from a near-straight guess; the sign of the Jacobian determinant tells
-    the taut branch from the sagging one; cables Newton cannot finish are
-    solved by a bracketing search over the catenaries through both ends and
-    polished. A cable is reported converged only if its forces are finite,
-    its span residuals below ``1e-8`` of its chord and its end tension within
-    ``1e-9`` of the prescribed one; otherwise ``"not_converged"`` (or
-    ``"infeasible"`` where no catenary carries the tension) with NaN values.
+    Newton on the two span equations with the tension condition built in, from a
+    near-straight guess; the sign of the Jacobian determinant tells the taut branch
+    from the sagging one; cables Newton cannot finish are solved by a bracketing
+    search over the catenaries through both ends and polished. Converged means finite
+    forces, span residuals below ``1e-8`` of the chord and the end tension within
+    ``1e-9`` of the prescribed one; else ``"not_converged"`` (``"infeasible"`` where
+    no catenary carries the tension) with NaN values.
     The method in detail: :mod:`catenary.solve.length`; the kernels run the same.
     """
     if end not in ("B", "A", "H"):
         raise InvalidCableError(f'end must be "B", "A" or "H"; got end={end!r}')
+    check_settings(rtol, max_iter)
     if compiled and end != "H":
         result = _compiled_length(end, x, z, tension, w, EA, rtol, max_iter)
         if result is not None:

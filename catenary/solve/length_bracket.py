@@ -145,8 +145,14 @@ class _FamilyTension:
         # Level cables: mu = 0 and alpha L0^2 + d L0 = x sinh(d).
         flat = z == 0.0
         rhs = x * np.sinh(d)
-        L = np.where(flat, 2.0 * rhs / (d + np.sqrt(d * d + 4.0 * alpha * rhs)), L)
-        mu = np.where(flat, 0.0, np.where(bad, np.nan, mu))
+        level = 2.0 * rhs / (d + np.sqrt(d * d + 4.0 * alpha * rhs))
+        # Nearly level ones whose mean angle is so small that cosh(mu) is 1 in floating
+        # point: the level length solves the span equation exactly, and the height
+        # gives mu (the search in log(mu) loses it there, among subnormal numbers).
+        near = np.arctanh(np.minimum(z / (level * (1.0 + beta * level)), 1.0 - EPS))
+        nearly = bad & ~flat & (np.cosh(near) == 1.0)
+        L = np.where(flat | nearly, level, L)
+        mu = np.where(flat, 0.0, np.where(nearly, near, np.where(bad, np.nan, mu)))
         self.mu[j] = np.where(np.isnan(mu), self.mu[j], mu)
         return mu, np.where(np.isnan(mu), np.nan, L)
 

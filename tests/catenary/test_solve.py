@@ -209,6 +209,23 @@ def test_infeasible_threshold_matches_minimum_tension() -> None:
     assert r.L0[0] < L[np.argmin(Tb)]
 
 
+@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("EA", [np.inf, 1e4])
+@pytest.mark.parametrize("end", ["B", "A"])
+def test_nearly_level_cables_are_decided_as_level_ones(end: str, EA: float,
+                                                       compiled: bool) -> None:
+    """A chord a hair off level (|z| from 1e-14 to 1e-5 of x) gets the level cable's
+    answer: infeasible below the least tension that holds it (where the search once
+    lost the mean end angle among subnormal numbers and said "not_converged"), and
+    above it a length continuous in z."""
+    z = np.array([0.0, 1e-14, 1e-12, 1e-10, 1e-9, 1e-8, 1e-7, 1e-6, 1e-5]) * 10.0
+    low = cat.solve_length(10.0, z, 5.0, 1.0, EA, end=end, compiled=compiled)
+    assert (low.status == "infeasible").all(), low.status
+    held = cat.solve_length(10.0, z, 8.0, 1.0, EA, end=end, compiled=compiled)
+    assert (held.status == "converged").all(), held.status
+    np.testing.assert_allclose(held.L0, held.L0[0], rtol=1e-5)
+
+
 def test_vertical_cables() -> None:
     # Hanging straight: V_B = w L0 + V_A; folded: V_A < 0.
     r = cat.solve_forces(0.0, [5.0, 5.0], [5.0 - 1e-3, 8.0], 2.0, [1e6, np.inf])
@@ -543,11 +560,12 @@ def test_folded_cable_with_a_subnormal_weight_keeps_its_span() -> None:
     np.testing.assert_allclose(F, [[L0 / EA, 0.0], [0.0, L0 / EA + L0 / H]], rtol=1e-15)
 
 
-UNREADABLE = [[[1.0, 2.0], [3.0]], "abc", [1.0, "x", 2.0]]
+UNREADABLE = [[[1.0, 2.0], [3.0]], "abc", [1.0, "x", 2.0], "10", ["10", "3"]]
 
 
 @pytest.mark.parametrize("compiled", [True, False])
-@pytest.mark.parametrize("value", UNREADABLE, ids=["ragged", "string", "mixed"])
+@pytest.mark.parametrize("value", UNREADABLE,
+                         ids=["ragged", "string", "mixed", "number_text", "number_texts"])
 @pytest.mark.parametrize("name", ["x", "z", "w", "EA"])
 def test_unreadable_arguments_raise_the_package_error_naming_them(name: str, value: object,
                                                                    compiled: bool) -> None:
