@@ -30,15 +30,22 @@ def as_float_array(name: str, value: ArrayLike) -> NDArray:
     Raises
     ------
     InvalidInputError
-        If numpy cannot make a float array of it (strings, ragged nesting, None).
+        If numpy cannot make a real float array of it (text, ragged nesting, None,
+        complex numbers).
     """
     if value is None or isinstance(value, str | bytes):
         raise InvalidInputError(f"{name} must be numbers, got {value!r}")
     try:
-        return np.asarray(value, dtype=float)
+        raw = np.asarray(value)
+        if raw.dtype.kind in "USV":  # text is not numbers, even where numpy reads it so
+            raise TypeError
+        if raw.dtype.kind != "c":
+            return raw.astype(float, copy=False)
     except (TypeError, ValueError):
         raise InvalidInputError(
             f"{name} must be a rectangular array of numbers, got {value!r}"[:300]) from None
+    raise InvalidInputError(f"{name} must be real numbers, got complex ones: pass its real "
+                            f"part ({name}.real) if that is meant")
 
 
 def as_finite(name: str, value: ArrayLike, shape: tuple[int, ...] | None = None) -> NDArray:

@@ -99,15 +99,13 @@ def distribute(
         rounding), in tasks of :data:`~tension_opt.chunked.CERTIFIED_TASK` poses unless
         ``chunk_size`` is given. Invalid input in a later chunk raises there.
     out : TensionSolution, optional
-        An earlier result on as many poses of the same robot and problem: its arrays
-        are overwritten with this call's results, which the returned solution holds.
-        Memory already touched saves the page faults of fresh results (10^6 study
-        poses: about 0.7x the time). Not for calls running at the same time.
+        An earlier result on as many poses of the same robot and problem, whose arrays
+        take this call's results (no page faults of fresh memory: 10^6 study poses in
+        about 0.7x the time). Not for calls running at the same time.
     **options
-        Passed to the backend: ``accuracy`` (``"default"``, ``"high"`` or a number: the
-        certificate's target, the closed form's too), ``time_limit`` (s, for each solver
-        call: one pose, or cvxpy's ``batch_size`` poses; solvers without one ignore it),
-        ``solver_options`` (a dict in the solver's own names), ``warm_start``,
+        ``accuracy`` (``"default"``, ``"high"`` or a number: the certificate's target,
+        the closed form's too), ``time_limit`` (s per solver call: a pose, or cvxpy's
+        ``batch_size`` poses), ``solver_options`` (the solver's own names), ``warm_start``,
         ``batch_size`` (:mod:`tension_opt.backends.settings`); anything else is an error.
         A warm start does not cross from one chunk to the next.
 

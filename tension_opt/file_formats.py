@@ -121,6 +121,20 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return dict(pairs)
 
 
+_TOO_DEEP = "lists or mappings nested too deep for a robot file"
+
+
+def _refuse_aliases(path: Path, text: str) -> None:
+    """Raise at the first YAML alias (``*name``): a robot file writes its values out,
+    and aliases of aliases expand without bound (a few lines can stand for billions
+    of values)."""
+    for event in yaml.parse(text, Loader=_Loader):
+        if isinstance(event, yaml.AliasEvent):
+            _syntax_error(path, event.start_mark.line + 1,
+                          f"alias *{event.anchor} is not allowed in a robot file: write the "
+                          "value out")
+
+
 def _syntax_error(path: Path, line: int, message: str) -> NoReturn:
     raise file_error(path, [("(syntax)", line, message)])
 
@@ -140,8 +154,13 @@ def parse_text(path: Path, text: str) -> Any:
             _syntax_error(path, error.lineno, error.msg)
         except ValueError as error:
             _syntax_error(path, 0, str(error))
+        except RecursionError:
+            _syntax_error(path, 0, _TOO_DEEP)
     try:
+        _refuse_aliases(path, text)
         return yaml.load(text, Loader=_Loader)  # _Loader derives from the safe loader
+    except RecursionError:
+        _syntax_error(path, 0, _TOO_DEEP)
     except yaml.YAMLError as error:
         mark = getattr(error, "problem_mark", None)
         problem = getattr(error, "problem", None) or str(error)

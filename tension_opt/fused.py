@@ -122,14 +122,14 @@ class CertifiedBatch:
         self.status = array("status", (N,), STATUS_DTYPE)
         self.unique = array("unique", (N,), bool)
         self.measures = {name: array(name, (N,)) for name in _MEASURES}
+        self.multipliers = Multipliers(*(array(f"multipliers.{name}", (N, cols)) for name, cols
+                                         in (("y", plan.n), ("mu", plan.g), ("z", plan.k))))
         self.iterations: NDArray | None
         if out is None or out.iterations is None:
             self.iterations = np.zeros(N, dtype=int)  # the closed form's: none
-        else:
+        else:  # (written last: every array of out is checked first)
             self.iterations = reused_array(out, "iterations", (N,), None)
             self.iterations[...] = 0
-        self.multipliers = Multipliers(*(array(f"multipliers.{name}", (N, cols)) for name, cols
-                                         in (("y", plan.n), ("mu", plan.g), ("z", plan.k))))
 
     def solve(self, sl: slice) -> NDArray | slice | None:
         """Solve the poses ``sl`` by the kernel; returns the poses left to the caller

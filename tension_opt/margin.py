@@ -42,6 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.backends.base import Backend
 from tension_opt.backends.registry import LP_ORDER, available_backends, choose_backend
+from tension_opt.backends.settings import check_options
 from tension_opt.checks import as_float_array
 from tension_opt.errors import InvalidInputError, UnsupportedProblemError
 from tension_opt.nullspace import (
@@ -561,6 +562,7 @@ def capacity_margin(robot: CableRobot, poses: ArrayLike, wrench: ArrayLike | Non
         Margin (N): positive inside, negative outside, ``+inf`` unbounded, ``-inf`` where
         no tensions are in equilibrium, NaN where a solver failed.
     """
+    check_options(options)
     p = robot.as_poses(poses)
     N = len(p)
     w = None if wrench is None else as_float_array("wrench", wrench)

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from tension_opt.checks import check_positive, is_number
 from tension_opt.errors import InvalidInputError
 from tension_opt.robot import CableProperties, CableRobot
 
@@ -70,9 +71,10 @@ def algae_harvester_from_parameters(**overrides: Any) -> CableRobot:
     p = {**_ALGAE_DEFAULTS, **overrides}
     for key in ("pond_length", "pond_width", "tower_height", "mass", "cable_diameter",
                 "cable_density"):
-        value = p[key]
-        if not np.isfinite(value) or value <= 0:
-            raise InvalidInputError(f"{key} must be a positive finite number, got {value!r}")
+        check_positive(key, p[key])
+    for key in ("offset_x", "offset_y"):
+        if not (is_number(p[key]) and np.isfinite(p[key])):
+            raise InvalidInputError(f"{key} must be a finite number, got {p[key]!r}")
     hx = p["pond_length"] / 2 + p["offset_x"]
     hy = p["pond_width"] / 2 + p["offset_y"]
     h = p["tower_height"]

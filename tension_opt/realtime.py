@@ -313,6 +313,11 @@ class Distributor:
     def _many(self, p: NDArray, wrench: ArrayLike | None,
               previous: ArrayLike | None) -> RealtimeResult:
         """A batch: in parallel when poses are independent, in order for a stream."""
+        N, n, m = len(p), self.robot.dof, self.robot.m
+        for name, value, k in (("wrench", wrench, n), ("previous", previous, m)):
+            if value is not None and np.shape(value) not in ((k,), (N, k)):
+                raise InvalidInputError(f"{name} must have shape ({k},) or ({N}, {k}) for "
+                                        f"{N} poses, got {np.shape(value)}")
         independent = previous is not None and np.ndim(previous) == 2
         stream = self._sequential and not independent
         if self._data is None or (self._daqp is not None and not stream):

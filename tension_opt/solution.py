@@ -264,13 +264,18 @@ class TensionSolution:
         Raises
         ------
         InvalidInputError
-            If an array of ``out`` has another shape than this solution's.
+            If an array of ``out`` has another shape than this solution's (``out`` is
+            then left as it was).
         """
-        theirs = per_pose_arrays(out)
+        theirs, ours = per_pose_arrays(out), per_pose_arrays(self)
+        shared = [name for name, mine in ours.items()
+                  if mine is not None and theirs.get(name) is not None]
+        for name in shared:  # every array checked before any is written
+            reused_array(out, name, ours[name].shape, None)
         held = {}
-        for name, mine in per_pose_arrays(self).items():
-            if mine is not None and theirs.get(name) is not None:
-                target = reused_array(out, name, mine.shape, None)
+        for name, mine in ours.items():
+            if name in shared:
+                target = theirs[name]
                 if target is not mine:
                     target[...] = mine
                 mine = target

@@ -185,6 +185,9 @@ class CableRobot:
         home = None if self.home is None else as_finite("home", self.home, (self.dof,))
         inertia = (box_inertia(self.mass, attachments) if self.inertia is None
                    else inertia_tensor(self.inertia))
+        # The robot's own copies: the caller's arrays stay theirs, and writeable.
+        anchors, attachments, com = anchors.copy(), attachments.copy(), com.copy()
+        home = None if home is None else home.copy()
         object.__setattr__(self, "anchors", anchors)
         object.__setattr__(self, "attachments", attachments)
         object.__setattr__(self, "com", com)
@@ -192,8 +195,9 @@ class CableRobot:
         object.__setattr__(self, "t_max", t_max)
         object.__setattr__(self, "home", home)
         object.__setattr__(self, "inertia", inertia)
-        for arr in (anchors, attachments, com, t_min, t_max, inertia):
-            arr.setflags(write=False)
+        for arr in (anchors, attachments, com, t_min, t_max, inertia, home):
+            if arr is not None:
+                arr.setflags(write=False)
 
     # ------------------------------------------------------------------ sizes
     @property

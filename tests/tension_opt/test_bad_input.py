@@ -305,3 +305,61 @@ def test_distributor_names_arguments_numpy_cannot_read(study: to.CableRobot, nam
     call = {"pose": study.default_home(), name: value}
     with pytest.raises(to.InvalidInputError, match=name):
         solver(call.pop("pose"), **call)
+
+
+@pytest.mark.parametrize("backend", ["closed_form", "qpsolvers:daqp", "cvxpy:CLARABEL"])
+def test_distributor_refuses_rows_that_do_not_match_the_poses(study: to.CableRobot,
+                                                              backend: str) -> None:
+    """A wrench or previous tensions with another number of rows than the poses is an
+    error naming it (the DAQP and cvxpy paths once used the first rows and dropped the
+    rest)."""
+    if backend not in to.available_backends():
+        pytest.skip(f"{backend} not installed")
+    solver = to.Distributor(study, "min_norm", backend)
+    poses = np.zeros((2, 3))
+    with pytest.raises(to.InvalidInputError, match=r"wrench must have shape \(3,\) or \(2, 3\)"):
+        solver(poses, wrench=np.zeros((3, 3)))
+    smoothed = to.Distributor(study, to.TensionProblem("min_norm", smoothing=1.0), backend)
+    with pytest.raises(to.InvalidInputError, match=r"previous must have shape"):
+        smoothed(poses, previous=np.ones((3, 4)))
+    rows = smoothed(poses, previous=np.full((2, 4), 3000.0), wrench=np.zeros((2, 3)))
+    assert (rows.status == to.Status.OPTIMAL).all()
+
+
+@pytest.mark.parametrize("poses", [np.array([[1j, 0.0, 0.0]]), [["1", "0", "0"]]],
+                         ids=["complex", "text"])
+def test_poses_that_are_not_real_numbers_are_named(study: to.CableRobot,
+                                                   poses: object) -> None:
+    """Complex poses lost their imaginary part with a warning, numbers as text were
+    read as numbers: both are errors now."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(to.InvalidInputError, match="poses must be"):
+            to.distribute(study, poses)
+
+
+def test_preset_overrides_and_margin_options_are_checked(study: to.CableRobot) -> None:
+    for value in ("80", None, [80.0]):
+        with pytest.raises(to.InvalidInputError, match="pond_length"):
+            to.presets.algae_harvester(pond_length=value)
+    with pytest.raises(to.InvalidInputError, match="offset_x"):
+        to.presets.algae_harvester(offset_x="6")
+    for options, match in (({"bogus": 1}, "unknown option"), ({"time_limit": -5}, "time_limit"),
+                           ({"accuracy": "bogus"}, "accuracy")):
+        with pytest.raises(to.InvalidInputError, match=match):
+            to.capacity_margin(study, np.zeros((1, 3)), **options)
+
+
+def test_a_robot_keeps_its_own_copies_of_the_arrays_it_is_given() -> None:
+    """The caller's arrays stay theirs and writeable (they were made read-only and
+    shared with the robot)."""
+    anchors = np.array([[-1.0, -1, 1], [-1, 1, 1], [1, 1, 1], [1, -1, 1]])
+    attachments, home = np.zeros((4, 3)), np.zeros(3)
+    robot = to.CableRobot(anchors=anchors, attachments=attachments, mass=1.0,
+                          kind="point3", home=home)
+    for given, held in ((anchors, robot.anchors), (attachments, robot.attachments),
+                        (home, robot.home)):
+        assert given.flags.writeable and not held.flags.writeable
+        assert not np.shares_memory(given, held)
+    anchors[0, 0] = -2.0
+    assert robot.anchors[0, 0] == -1.0

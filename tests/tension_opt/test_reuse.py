@@ -143,3 +143,20 @@ def test_bad_out_is_named() -> None:
     read_only.status.flags.writeable = False
     with pytest.raises(InvalidInputError, match=r"out\.status must be a writeable array"):
         to.distribute(robot, poses, "min_sum", "closed_form", out=read_only)
+
+
+@pytest.mark.parametrize(("count", "backend"), [(2, "cvxpy:CLARABEL"), (10_000, "closed_form")])
+def test_a_rejected_out_is_left_as_it_was(count: int, backend: str) -> None:
+    """An earlier result of another problem (min-max has other multipliers) is refused
+    before anything is written into it (the copy once stopped at the first misfit)."""
+    if backend not in to.available_backends():
+        pytest.skip(f"{backend} not installed")
+    robot = to.presets.algae_harvester()
+    poses = np.repeat([[0.0, 0.0, 0.0], [-29.4, 10.2, 1.5]], count // 2, axis=0)
+    out = to.distribute(robot, poses, "min_sum", backend)
+    before = {name: a.copy() for name, a in per_pose_arrays(out).items() if a is not None}
+    with pytest.raises(to.InvalidInputError, match=r"multipliers\.mu"):
+        to.distribute(robot, poses, "min_max", backend, out=out)
+    for name, array in per_pose_arrays(out).items():
+        if array is not None:
+            assert array.tobytes() == before[name].tobytes(), name

@@ -231,6 +231,24 @@ def test_unreadable_yaml_is_a_file_error_with_its_line(text: str, message: str,
         to.CableRobot.from_file(path)
 
 
+def test_aliases_and_deep_nesting_are_file_errors_at_once(tmp_path: Path) -> None:
+    """A few lines of aliases of aliases stand for 10^9 values (reading them took
+    minutes and gigabytes): refused at the first alias; nesting beyond the parsers'
+    depth is a file error, not a RecursionError."""
+    lines = ["kind: point3", "mass: 1.0", "a0: &a0 [x, x, x, x, x, x, x, x, x, x]"]
+    lines += [f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * 10) + "]" for i in range(1, 9)]
+    path = tmp_path / "bomb.yaml"
+    path.write_text("\n".join([*lines, "notes: *a8"]) + "\n")
+    with pytest.raises(to.RobotFileError, match=r"line 4: .*alias \*a0 is not allowed"):
+        to.CableRobot.from_file(path)
+    for suffix, text in ((".json", "[" * 100_000 + "]" * 100_000),
+                         (".yaml", "a: " + "[" * 100_000 + "]" * 100_000)):
+        deep = tmp_path / f"deep{suffix}"
+        deep.write_text(text)
+        with pytest.raises(to.RobotFileError, match="nest"):
+            to.CableRobot.from_file(deep)
+
+
 def test_unknown_suffix_missing_file_and_unregistered_kind_are_file_errors(
         tmp_path: Path) -> None:
     with pytest.raises(to.RobotFileError, match=r"suffix '\.txt'.*\.yaml, \.yml or \.json"):
