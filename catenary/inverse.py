@@ -58,7 +58,12 @@ from .solve import solve_length
 from .solve.common import check_settings, float_argument
 from .solve.compiled import new_result
 
-__all__ = ["InverseKinematicsResult", "inverse_kinematics", "thesis_result"]
+__all__ = ["CERT_TOL", "InverseKinematicsResult", "coupled_certificate", "inverse_kinematics",
+           "thesis_result"]
+
+#: Equilibrium residual and bound violation allowed in a converged answer of the
+#: coupled model, relative to the pose's load scale ``max(||b||, largest t_min)`` (N).
+CERT_TOL = 1e-6
 
 FloatArray = NDArray[np.float64]
 # Arrays of a pose solved by the compiled path, copied (cheaper than building them).
@@ -207,7 +212,9 @@ def inverse_kinematics(
     -------
     InverseKinematicsResult
         Lengths, end tensions, platform forces, equilibrium residual, iterations and
-        per-pose status (thesis model: converged catenaries, equilibrium not imposed).
+        per-pose status (thesis model: converged catenaries, equilibrium not imposed;
+        coupled model: converged only where :func:`coupled_certificate` holds, else
+        inaccurate).
 
     Notes
     -----
@@ -263,7 +270,33 @@ def _batch(robot: CableRobot, poses: ArrayLike, model: str, objective: Any,
     else:
         solution = _thesis(planes, straight.tensions, straight.status, w, EA,
                            settings["compiled"])
-    return _result(robot, p, wrench, planes, solution, model, time.perf_counter() - start)
+    result = _result(robot, p, wrench, planes, solution, model, time.perf_counter() - start)
+    if model == "coupled":
+        lb, ub = as_problem(objective).bounds(robot, len(p))
+        b = robot.required_wrench(p, wrench)
+        missed = (result.status == Status.CONVERGED) & ~coupled_certificate(result, b, lb,
+                                                                             ub, w)
+        result.status[missed] = Status.INACCURATE
+    return result
+
+
+def coupled_certificate(result: InverseKinematicsResult, b: FloatArray, lb: FloatArray,
+                        ub: FloatArray, w: float) -> NDArray[np.bool_]:
+    """Where a coupled answer holds its certificate, shape (N,): the catenary end forces
+    balance the load to :data:`CERT_TOL` of the pose's load scale (``max(||b||, largest
+    finite t_min)``, N) and the lowest and highest tension along every cable lie within
+    the bounds to the same tolerance. ``b`` the required wrenches (N, n), ``lb``, ``ub``
+    the bounds (N, m), ``w`` the weight per length (N/m)."""
+    finite_lb = np.where(np.isfinite(lb), np.abs(lb), 0.0)
+    scale = np.maximum(np.maximum(np.linalg.norm(b, axis=1), finite_lb.max(axis=1)), 1e-12)
+    V_A, T_A, T_B = (result.platform_forces[:, :, 2], result.tensions_platform,
+                     result.tensions)
+    # The lowest tension: at the low point where the cable dips between its ends.
+    dips = (V_A < 0) & (V_A + w * result.lengths > 0)
+    low = np.where(dips, result.horizontal_tensions, np.minimum(T_A, T_B))
+    with np.errstate(invalid="ignore"):
+        violation = np.maximum((lb - low).max(axis=1), (np.maximum(T_A, T_B) - ub).max(axis=1))
+    return (result.equilibrium_residual <= CERT_TOL * scale) & (violation <= CERT_TOL * scale)
 
 
 def _coupled(robot: CableRobot, poses: FloatArray, planes: CablePlanes,

@@ -45,15 +45,12 @@ from tension_opt.solution import STATUS_DTYPE, Status
 
 from .errors import InvalidCableError
 from .geometry import cable_data
-from .inverse import InverseKinematicsResult, inverse_kinematics
+from .inverse import CERT_TOL, InverseKinematicsResult, inverse_kinematics
 from .solve.kernels import CONVERGED as CATENARY_OK
 from .solve.kernels import solve_length_one, spans_one
 
 __all__ = ["CERT_TOL", "CoupledIK", "coupled_pose"]
 
-#: Equilibrium residual and bound violation allowed in a converged answer, relative
-#: to the load scale ``max(||b||, largest t_min)`` (N).
-CERT_TOL = 1e-6
 #: Codes of :func:`coupled_pose`.
 SETTLED, INFEASIBLE, MAX_ITER, UNCERTIFIED, BAD_INPUT, FALLBACK = 0, 1, 2, 3, 8, 9
 _STATUS = {SETTLED: Status.CONVERGED, INFEASIBLE: Status.INFEASIBLE,
@@ -564,28 +561,11 @@ class CoupledIK:
             solve_time=0.0)
 
     def _reference(self, p: NDArray, wrench: ArrayLike | None) -> InverseKinematicsResult:
-        """The numpy function, its status held to the same certificate."""
+        """The numpy function (which holds its status to the same certificate,
+        :func:`catenary.inverse.coupled_certificate`)."""
         result = inverse_kinematics(self.robot, p, "coupled", self.problem, self.backend,
                                     wrench, tol=self.tol, max_iter=self.max_iter,
                                     **self.options)
-        if result.status[0] == Status.CONVERGED and not self._certified(p, wrench, result):
-            status = np.array([Status.INACCURATE], dtype=STATUS_DTYPE)
-            result = InverseKinematicsResult(**{**vars(result), "status": status})
         if self.warm_start and result.status[0] == Status.CONVERGED:
             self._local.last = None  # no multipliers to continue from
         return result
-
-    def _certified(self, p: NDArray, wrench: ArrayLike | None,
-                   result: InverseKinematicsResult) -> bool:
-        """The certificate of the module docstring for a result of the numpy function."""
-        lb, ub = self.problem.bounds(self.robot, 1)
-        b = self.robot.required_wrench(p[None], wrench)[0]
-        scale = max(float(np.linalg.norm(b)),
-                    float(np.abs(lb[np.isfinite(lb)]).max(initial=0.0)), 1e-12)
-        V_A, T_A, T_B = (result.platform_forces[0, :, 2], result.tensions_platform[0],
-                         result.tensions[0])
-        low = np.where((V_A < 0) & (V_A + self.w * result.lengths[0] > 0),
-                       result.horizontal_tensions[0], np.minimum(T_A, T_B))
-        violation = max(float((lb[0] - low).max()), float((np.maximum(T_A, T_B) - ub[0]).max()))
-        return bool(result.equilibrium_residual[0] <= CERT_TOL * scale
-                    and violation <= CERT_TOL * scale)

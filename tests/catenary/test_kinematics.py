@@ -82,6 +82,22 @@ def test_coupled_balances_the_load_on_the_thesis_robot(thesis, snapshots):
     assert (ik.sag > 0).all()
 
 
+def test_coupled_converged_means_its_certificate_holds(thesis):
+    """A loose step tolerance stops the iteration early: those poses are inaccurate,
+    not converged, and they are exactly the ones whose forces miss the certificate."""
+    from catenary.inverse import CERT_TOL
+
+    poses = _thesis_poses(thesis, 40, 3)
+    loose = inverse_kinematics(thesis, poses, model="coupled", tol=0.5)
+    tight = inverse_kinematics(thesis, poses, model="coupled")
+    assert (tight.status == "converged").all()
+    load = np.linalg.norm(thesis.required_wrench(poses), axis=1)
+    met = loose.equilibrium_residual <= CERT_TOL * np.maximum(load, thesis.t_min.max())
+    assert (loose.status == "inaccurate").any()
+    np.testing.assert_array_equal(loose.status == "converged", met)
+    assert set(loose.status) <= {"converged", "inaccurate"}
+
+
 @pytest.mark.parametrize("objective", ["min_sum", "min_norm"])
 def test_coupled_balances_the_load_on_cogiro(objective):
     robot = to.presets.cogiro()

@@ -156,12 +156,12 @@ def test_infeasible_poses_are_not_converged() -> None:
 
 def test_a_loose_tolerance_settles_but_is_not_called_converged() -> None:
     """With ``tol=0.5`` the iteration stops after two steps with forces that do not
-    balance the load: the reference says converged, the certificate says no."""
+    balance the load: the step criterion is met, the certificate is not, and both the
+    kernel and the numpy function say so (the numpy function once said converged)."""
     p = np.array([10.0, 5.0, 3.0])
     ref = catenary.inverse_kinematics(ALGAE, p, model="coupled", tol=0.5)
     got = CoupledIK(ALGAE, tol=0.5, warm_start=False)(p)
-    assert ref.status[0] == Status.CONVERGED  # the reference's step criterion
-    assert got.status[0] == Status.INACCURATE
+    assert ref.status[0] == got.status[0] == Status.INACCURATE
     assert got.equilibrium_residual[0] > 1e3 * CERT_TOL * LOAD
     np.testing.assert_allclose(got.equilibrium_residual, ref.equilibrium_residual, rtol=1e-6)
 
