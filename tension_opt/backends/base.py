@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from tension_opt.backends.feasibility import settle_failures
 from tension_opt.backends.settings import unreachable
 from tension_opt.backends.tiebreak import face_min_norm, lp_optimum_is_unique, optimal_face
 from tension_opt.certificate import Multipliers, accuracy_target, certify
@@ -118,7 +119,9 @@ class Backend:
             If the solver rejects ``options["solver_options"]``.
         """
         self.check_solver_options(options)
-        return honest(self._solve_and_break_ties(form, options))
+        raw = honest(self._solve_and_break_ties(form, options))
+        settle_failures(form, raw)  # a silent failure on an infeasible pose says so
+        return raw
 
     def _certified(self, form: StandardForm, raw: RawResult, target: float) -> RawResult:
         """``raw`` with its certificate: ``OPTIMAL`` poses that miss ``target`` become

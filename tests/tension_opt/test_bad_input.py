@@ -363,3 +363,22 @@ def test_a_robot_keeps_its_own_copies_of_the_arrays_it_is_given() -> None:
         assert not np.shares_memory(given, held)
     anchors[0, 0] = -2.0
     assert robot.anchors[0, 0] == -1.0
+
+
+@pytest.mark.parametrize("backend", ["qpsolvers:highs", "qpsolvers:daqp"])
+def test_silent_solver_failures_on_infeasible_poses_say_infeasible(study: to.CableRobot,
+                                                                   backend: str) -> None:
+    """HiGHS through qpsolvers fails on an infeasible pose without a status, DAQP with
+    an exit flag of its own for equal bounds: both read ``infeasible`` (a feasibility
+    LP proves it), as every other backend says, where they read ``solver_error``."""
+    if backend not in to.available_backends():
+        pytest.skip(f"{backend} not installed")
+    rng = np.random.default_rng(0)
+    low, high = study.anchors.min(axis=0), study.anchors.max(axis=0)
+    poses = rng.uniform(low - [0.0, 0.0, 9.0], high - [0.0, 0.0, 0.5], (120, 3))
+    for problem in ("min_sum", "min_max", to.TensionProblem("min_sum", t_min=3000.0,
+                                                              t_max=3000.0)):
+        got = to.distribute(study, poses, problem, backend)
+        reference = to.distribute(study, poses, problem, "scipy:highs")
+        assert (reference.status == to.Status.INFEASIBLE).sum() >= 10
+        np.testing.assert_array_equal(got.status, reference.status)
