@@ -24,6 +24,7 @@ __all__ = [
     "EPS",
     "INDETERMINATE",
     "INFEASIBLE",
+    "MAX_ITER_CAP",
     "NOT_CONVERGED",
     "RES_TOL",
     "SLACK",

@@ -20,6 +20,7 @@ from .common import (
     EPS,
     INDETERMINATE,
     INFEASIBLE,
+    MAX_ITER_CAP,
     NOT_CONVERGED,
     RES_TOL,
     SLACK,
@@ -479,7 +480,9 @@ def solve_forces(
     compiled kernels run the same guess, Newton and certificate per cable (in parallel
     over large batches); the first call loads them.
     """
-    check_settings(rtol, max_iter)
+    if not (type(rtol) is float and 0.0 < rtol < 1.0 and type(max_iter) is int
+            and 0 < max_iter <= MAX_ITER_CAP):  # the usual settings pass without a call
+        check_settings(rtol, max_iter)
     if compiled:
         result = _compiled_forces(x, z, L0, w, EA, rtol, max_iter)
         if result is not None:

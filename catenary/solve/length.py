@@ -37,6 +37,7 @@ from .common import (
     CONVERGED,
     INDETERMINATE,
     INFEASIBLE,
+    MAX_ITER_CAP,
     NOT_CONVERGED,
     STATUS_DTYPE,
     T_TOL,
@@ -309,7 +310,9 @@ def solve_length(
     """
     if end not in ("B", "A", "H"):
         raise InvalidCableError(f'end must be "B", "A" or "H"; got end={end!r}')
-    check_settings(rtol, max_iter)
+    if not (type(rtol) is float and 0.0 < rtol < 1.0 and type(max_iter) is int
+            and 0 < max_iter <= MAX_ITER_CAP):  # the usual settings pass without a call
+        check_settings(rtol, max_iter)
     if compiled and end != "H":
         result = _compiled_length(end, x, z, tension, w, EA, rtol, max_iter)
         if result is not None:
