@@ -468,17 +468,17 @@ def solve_forces(
 
     Notes
     -----
-    Newton on ``(H, V_B)`` with the analytic flexibility matrix, from a
-    parabolic (taut) or inextensible-catenary (slack) closed-form guess,
-    with H kept positive, in units of the chord and of the cable's force
-    scale. Cables Newton leaves unconverged are solved through one monotone
-    equation in the end angles (see ``_EndAngleEquation``) and polished.
-    Vertical (``x <= 1e-15`` chord) and weightless (``w = 0``) cables are
-    solved in closed form. A cable is reported converged only if its forces
-    are finite and its spans within ``1e-8`` of the chord of ``(x, z)``;
-    otherwise ``"not_converged"`` with NaN forces (see :mod:`catenary.solve`). The
+    Newton on ``(H, V_B)`` with the analytic flexibility matrix, from a parabolic
+    (taut) or inextensible-catenary (slack) closed-form guess, with H kept positive, in
+    units of the chord and of the cable's force scale. Cables Newton leaves unconverged
+    are solved through one monotone equation in the end angles (``_EndAngleEquation``)
+    and polished. Vertical (``x <= 1e-15`` chord) and weightless (``w = 0``) cables are
+    solved in closed form. Converged means finite forces and spans within ``1e-8`` of
+    the chord of ``(x, z)``; else ``"not_converged"`` with NaN forces. The
     compiled kernels run the same guess, Newton and certificate per cable (in parallel
-    over large batches); the first call loads them.
+    over large batches); the first call loads them. Both agree to about 1e-12 save on
+    taut, nearly vertical cables, where ``H`` moves by 1e-6 for a change of ``z`` of
+    1e-14 of the chord: up to 3e-8 apart, each exact for the data to rounding.
     """
     if not (type(rtol) is float and 0.0 < rtol < 1.0 and type(max_iter) is int
             and 0 < max_iter <= MAX_ITER_CAP):  # the usual settings pass without a call

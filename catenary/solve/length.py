@@ -281,16 +281,14 @@ def solve_length(
     rtol, max_iter
         Newton step tolerance, in (0, 1), and iteration limit (1 to 10000).
     compiled : bool
-        Whether the compiled kernels (:mod:`catenary.solve.kernels`) solve the cables
-        they settle (``end`` "B" or "A"); False: the numpy reference for every cable.
+        Compiled kernels for the cables they settle (``end`` "B", "A"); False: numpy.
 
     Returns
     -------
     LengthResult
-        ``.L0`` (m) and the end forces, arrays of the broadcast input shape.
-        Where two catenaries have the prescribed end tension, the taut one (shorter,
-        larger H) is returned; where none has, status is ``"infeasible"``, the values
-        NaN and the iterations 0 (they count Newton steps, not bracketing ones).
+        ``.L0`` (m) and the end forces, arrays of the broadcast input shape. Where two
+        catenaries carry the tension, the taut one (shorter, larger H); where none does,
+        ``"infeasible"``, NaN values and 0 iterations (Newton steps, not bracketing).
 
     Raises
     ------

@@ -19,7 +19,6 @@ import numpy as np
 from tension_opt.solution import Status
 
 if TYPE_CHECKING:
-    from tension_opt.backends.base import RawResult
     from tension_opt.problems import StandardForm
 
 __all__ = ["settle_failures"]
@@ -28,9 +27,11 @@ __all__ = ["settle_failures"]
 _LINPROG_INFEASIBLE = 2
 
 
-def settle_failures(form: StandardForm, raw: RawResult) -> None:
-    """Relabel ``INFEASIBLE`` the poses of ``raw`` that failed as ``SOLVER_ERROR``
-    without a message where a feasibility LP proves them infeasible (in place)."""
+def settle_failures(form: StandardForm, raw: Any) -> None:
+    """Relabel ``INFEASIBLE`` the poses of ``raw`` (a backend's
+    :class:`~tension_opt.backends.base.RawResult` on ``form``) that failed as
+    ``SOLVER_ERROR`` without a message where a feasibility LP proves them infeasible
+    (in place)."""
     errors: dict[Any, Any] = raw.extras.get("errors", {})
     silent = [int(i) for i in np.flatnonzero(np.asarray(raw.status) == Status.SOLVER_ERROR)
               if int(i) not in errors]
