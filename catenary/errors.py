@@ -2,7 +2,11 @@
 
 Every exception raised on purpose by the package derives from
 :class:`CatenaryError`. Argument errors also derive from :class:`ValueError`
-so that callers catching the builtin keep working.
+so that callers catching the builtin keep working. The functions of a robot
+(kinematics, stiffness, workspace) read its poses, wrenches and objective with
+:mod:`tension_opt`'s own checks and so raise its
+:class:`~tension_opt.errors.InvalidInputError` for those (a :class:`ValueError`
+too, naming the argument): catch :class:`ValueError` to take both.
 """
 
 from __future__ import annotations
