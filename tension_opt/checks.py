@@ -33,6 +33,8 @@ def as_float_array(name: str, value: ArrayLike) -> NDArray:
         If numpy cannot make a real float array of it (text, ragged nesting, None,
         complex numbers).
     """
+    if type(value) is np.ndarray and value.dtype.kind in "fiub":  # the usual call
+        return value.astype(float, copy=False)
     if value is None or isinstance(value, str | bytes):
         raise InvalidInputError(f"{name} must be numbers, got {value!r}")
     try:
