@@ -54,6 +54,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from tension_opt.checks import is_number
+
 from .errors import InvalidCableError
 from .solve.common import float_argument
 
@@ -119,8 +121,7 @@ class CableMaterial:
             Use the effective rope modulus (default) instead of the material's.
         """
         area = _area(diameter)
-        if not (isinstance(g, int | float | np.integer | np.floating) and not isinstance(
-                g, bool | np.bool_) and 0.0 <= float(g) < math.inf):
+        if not (is_number(g) and 0.0 <= float(g) < math.inf):
             raise InvalidCableError(f"g must be a finite number >= 0 (m/s^2); got g={g!r}")
         E = self.rope_modulus if rope else self.modulus
         return self.density * area * g, E * area

@@ -323,7 +323,7 @@ class Distributor:
         if self._data is None or (self._daqp is not None and not stream):
             prev = previous if independent else self._stream_start(previous)
             return self._numpy(p, wrench, prev, np.arange(len(p)), None)
-        w = self._wrenches(len(p), wrench)
+        w = self._wrenches(wrench)
         if self._daqp is not None:
             return self._daqp_stream(p, w, wrench, previous)
         if stream:
@@ -352,16 +352,12 @@ class Distributor:
                                                           one.compiled)
         return RealtimeResult(T, status, unique, residual, infeasibility, compiled)
 
-    def _wrenches(self, N: int, wrench: ArrayLike | None) -> NDArray:
-        """External wrenches (N, n) of a batch, or (1, n) for one for every pose."""
-        n = self.robot.dof
+    def _wrenches(self, wrench: ArrayLike | None) -> NDArray:
+        """External wrenches (N, n) of a batch, or (1, n) for one for every pose (their
+        shape checked by :meth:`_many`)."""
         if wrench is None:
             return self._no_wrench[None, :]
-        w = as_finite("wrench", wrench)
-        if w.shape not in ((n,), (N, n)):
-            raise InvalidInputError(f"wrench must have shape ({n},) or ({N}, {n}), "
-                                    f"got {w.shape}")
-        return np.ascontiguousarray(w.reshape(-1, n))
+        return np.ascontiguousarray(as_finite("wrench", wrench).reshape(-1, self.robot.dof))
 
     def _batch(self, p: NDArray, w: NDArray, wrench: ArrayLike | None,
                previous: ArrayLike | None) -> RealtimeResult:

@@ -42,8 +42,8 @@ def settle_failures(form: StandardForm, raw: Any) -> None:
     from tension_opt.scaled import scaled_batch
 
     batch = scaled_batch(form.subset(np.array(silent)))
+    rows = batch.G.shape[1] > 0
     for j, pose in enumerate(silent):
-        rows = batch.G.shape[1] > 0
         result = linprog(np.zeros(batch.k), A_ub=batch.G[j] if rows else None,
                          b_ub=batch.h[j] if rows else None, A_eq=batch.Aeq[j],
                          b_eq=batch.beq[j], bounds=np.column_stack([batch.lb[j], batch.ub[j]]),
