@@ -13,7 +13,8 @@ system call) is printed as the first row and included in every per-call figure.
 Batches are timed in wall time per pose (``time.perf_counter``) on one and on all numba
 threads: the median of three calls after one untimed call of the same size. A plain
 call's results are fresh memory whose page faults it pays (the allocator gives large
-arrays back to the system when freed); the ``out=`` row writes into the arrays of an
+arrays back to the system when freed); its statuses are one-byte codes until read, and
+the ``.status`` row adds decoding them; the ``out=`` row writes into the arrays of an
 earlier result instead.
 The first-call cost (compiling the kernels, or loading them from numba's disk
 cache) is measured in fresh processes.
@@ -250,8 +251,12 @@ def batch_rows(count: int) -> None:
                     lambda p=poses: to.distribute(robot, p, "min_sum", "closed_form"), count)
                 reused = wall_per_item(lambda p=poses, into=earlier: to.distribute(
                     robot, p, "min_sum", "closed_form", out=into), count)
+                read = wall_per_item(lambda p=poses: to.distribute(
+                    robot, p, "min_sum", "closed_form").status, count)
             print(f"  {label:<11s} plain call: distribute (compiled), {threads} thread(s) "
                   f"{plain:10.1f} ns/pose  ({before / plain:.1f}x)")
+            print(f"  {label:<11s} plain call, then its .status read, {threads} thread(s) "
+                  f"{read:10.1f} ns/pose  ({before / read:.1f}x)")
             print(f"  {label:<11s} plain call, out=earlier result, {threads} thread(s) "
                   f"{reused:10.1f} ns/pose  ({before / reused:.1f}x)")
         for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):

@@ -31,6 +31,7 @@ from tension_opt.errors import TensionOptError
 from tension_opt.problems import TensionProblem
 from tension_opt.robot import CableRobot
 from tension_opt.solution import STATUS_DTYPE, TensionSolution, reused_array
+from tension_opt.status import StatusCodes, status_codes
 
 __all__ = ["CertifiedBatch", "CertifiedPlan", "certified_plan"]
 
@@ -119,7 +120,9 @@ class CertifiedBatch:
 
         self.tensions = array("tensions", (N, m))
         self.codes = np.empty(N, dtype=np.int8)
-        self.status = array("status", (N,), STATUS_DTYPE)
+        # Fresh results keep the codes (1 byte a pose, decoded when read); out's status
+        # array is written.
+        self.status = None if out is None else array("status", (N,), STATUS_DTYPE)
         self.unique = array("unique", (N,), bool)
         self.measures = {name: array(name, (N,)) for name in _MEASURES}
         self.multipliers = Multipliers(*(array(f"multipliers.{name}", (N, cols)) for name, cols
@@ -148,7 +151,8 @@ class CertifiedBatch:
                                *(self.measures[name][sl] for name in _MEASURES),
                                mult.y[sl], mult.mu[sl], mult.z[sl])
         codes = self.codes[sl]
-        np.take(STATUS_VALUES, codes, out=self.status[sl], mode="clip")
+        if self.status is not None:
+            np.take(STATUS_VALUES, codes, out=self.status[sl], mode="clip")
         if not left:
             return None
         if (codes == CODE_GEOMETRY).any():
@@ -157,7 +161,9 @@ class CertifiedBatch:
 
     def put(self, index: NDArray | slice, sol: TensionSolution) -> None:
         """Write the solution ``sol`` of the poses ``index``."""
-        self.tensions[index], self.status[index] = sol.tensions, sol.status
+        self.tensions[index], self.codes[index] = sol.tensions, status_codes(sol.status)
+        if self.status is not None:
+            self.status[index] = sol.status
         self.unique[index] = sol.unique
         for name, values in self.measures.items():
             values[index] = getattr(sol, name)
@@ -174,7 +180,8 @@ class CertifiedBatch:
         """The solution of the whole batch (no form, as any chunked batch)."""
         backend = self.plan.backend
         return TensionSolution(
-            tensions=self.tensions, status=self.status, unique=self.unique,
+            tensions=self.tensions, unique=self.unique,
+            status=StatusCodes(self.codes) if self.status is None else self.status,
             iterations=self.iterations, setup_time=setup_time, solve_time=solve_time,
             backend=backend.name, solver=backend.solver, solver_version=backend.version,
             problem=problem, extras=extras, form=None, accuracy=self.plan.target,

@@ -12,6 +12,7 @@ re-exported here.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
@@ -29,7 +30,7 @@ from tension_opt.certificate import (
     primal_residual_of,
 )
 from tension_opt.errors import InvalidInputError
-from tension_opt.status import STATUS_DTYPE, Status, status_array
+from tension_opt.status import STATUS_DTYPE, Status, StatusCodes, status_array
 
 __all__ = ["FEASIBILITY_TOL", "PER_POSE", "STATUS_DTYPE", "Status", "TensionSolution",
            "per_pose_arrays", "reusable", "reused_array", "status_array"]
@@ -44,6 +45,43 @@ PER_POSE = ("tensions", "status", "unique", "objective", "residual", "bound_viol
             "iterations", "infeasibility", "primal_residual", "dual_residual",
             "duality_gap")
 _MULTIPLIER_PARTS = ("y", "mu", "z")
+#: Held while a solution swaps its status codes for the decoded array.
+_DECODING = threading.Lock()
+
+
+class _StatusField:
+    """The ``status`` field of a :class:`TensionSolution`: an array of :class:`Status`
+    values, which may be given as :class:`~tension_opt.status.StatusCodes` and is then
+    decoded when first read, once, whatever the threads reading it (the decoded array
+    is kept and is the status from then on: writes into it hold)."""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.slot = f"_{name}"
+
+    def __get__(self, obj: Any, owner: type | None = None) -> NDArray:
+        if obj is None:  # no default for the dataclass field
+            raise AttributeError("status has no default")
+        held = obj.__dict__[self.slot]
+        if isinstance(held, StatusCodes):
+            decoded = held.decode()
+            with _DECODING:
+                held = obj.__dict__[self.slot]
+                if isinstance(held, StatusCodes):
+                    held = obj.__dict__[self.slot] = decoded
+        return held
+
+    def __set__(self, obj: Any, value: NDArray | StatusCodes) -> None:
+        obj.__dict__[self.slot] = value
+
+    def equal_to(self, obj: Any, status: Status) -> NDArray:
+        """Mask of the poses of ``obj`` whose status is ``status`` (not decoding codes)."""
+        held = obj.__dict__[self.slot]
+        if isinstance(held, StatusCodes):
+            return held.equal_to(status)
+        return np.asarray(held == status, dtype=bool)
+
+
+_STATUS = _StatusField()
 
 
 @dataclass(eq=False)
@@ -55,6 +93,10 @@ class TensionSolution:
     tensions : ndarray, shape (N, m)
         Cable tensions (N); NaN where the pose has no solution.
     status : ndarray of Status, shape (N,)
+        Of :data:`~tension_opt.status.STATUS_DTYPE`. A large batch on the compiled
+        closed form holds it as one-byte codes, decoded when first read (a
+        :class:`~tension_opt.status.StatusCodes` may be given for it); :attr:`success`
+        reads the codes without decoding them.
     unique : ndarray of bool, shape (N,)
         False where the optimum is not unique (the tie was broken to the minimum
         2-norm among the optima).
@@ -99,7 +141,7 @@ class TensionSolution:
     """
 
     tensions: NDArray
-    status: NDArray
+    status: NDArray = _STATUS  # type: ignore[assignment]
     unique: NDArray
     objective: NDArray
     residual: NDArray
@@ -224,7 +266,7 @@ class TensionSolution:
     @property
     def success(self) -> NDArray:
         """Boolean mask of poses solved to optimality, shape (N,)."""
-        return np.asarray(self.status == Status.OPTIMAL, dtype=bool)
+        return _STATUS.equal_to(self, Status.OPTIMAL)
 
     @property
     def time_per_pose(self) -> float:

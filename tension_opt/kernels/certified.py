@@ -51,7 +51,8 @@ from tension_opt.kernels.multipliers import pose_estimate
 from tension_opt.kernels.scaling import pose_scaled, safe_norm_of
 from tension_opt.objectives import Centered, MinMax, MinNorm, MinSum, Pinv
 from tension_opt.problems import ROW_FLOOR, UB_SHARE
-from tension_opt.solution import FEASIBILITY_TOL, STATUS_DTYPE, Status
+from tension_opt.solution import FEASIBILITY_TOL
+from tension_opt.status import STATUS_TABLE
 
 __all__ = ["CODE_FALLBACK", "CODE_GEOMETRY", "STATUS_VALUES", "certified_poses",
            "pack_certified", "problem_views"]
@@ -59,9 +60,7 @@ __all__ = ["CODE_FALLBACK", "CODE_GEOMETRY", "STATUS_VALUES", "certified_poses",
 #: Code of a pose whose geometry the kernel flags (see the module docstring).
 CODE_GEOMETRY = 8
 #: Status values of the kernel's codes 0-3 (optimal, infeasible, unbounded, inaccurate).
-STATUS_VALUES = np.array([s.value for s in (Status.OPTIMAL, Status.INFEASIBLE,
-                                            Status.UNBOUNDED, Status.INACCURATE)],
-                         dtype=STATUS_DTYPE)
+STATUS_VALUES = STATUS_TABLE[:4]
 #: How the objective is evaluated (:meth:`tension_opt.problems.TensionProblem.evaluate`):
 #: ``sum_i w_i T_i``, ``max_i w_i T_i``, ``sum_i (T_i - r_i)^2 w_i``.
 _LINEAR, _MAX, _DISTANCE = 0, 1, 2

@@ -15,7 +15,9 @@ rounding noise of order 1e-13 of the pose's load, to 1e-12 of that load.
 from __future__ import annotations
 
 import importlib
-from dataclasses import fields
+import pickle
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import fields, replace
 
 import numpy as np
 import pytest
@@ -30,6 +32,7 @@ from tension_opt.errors import InvalidInputError
 from tension_opt.fused import CertifiedBatch, certified_plan
 from tension_opt.problems import TensionProblem
 from tension_opt.sampling import default_box
+from tension_opt.status import STATUS_DTYPE, StatusCodes, status_codes
 
 distribute_module = importlib.import_module("tension_opt.distribute")
 
@@ -352,3 +355,71 @@ def test_what_the_certified_path_takes() -> None:
         declines.append((study, TensionProblem("min_sum"), "scipy:highs"))
     for robot, problem, backend in declines:
         assert certified_plan(robot, problem, backend) is None, problem.name
+
+
+def test_fresh_results_hold_one_byte_codes_until_the_statuses_are_read(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A fresh result of the certified path keeps its statuses as one-byte codes:
+    ``success`` reads them, and the status array, decoded on first read (once, from any
+    number of threads), is the chunk path's, including the statuses of the poses left
+    to it; the decoded array is the status from then on."""
+    robot = presets.algae_harvester()
+    poses = spread_poses(robot, 700, 5)
+    top, center = robot.anchors[0, 2], robot.anchors[:, :2].mean(axis=0)
+    poses[17] = [*center, top]  # left to the chunk path: infeasible there
+    fast, slow, _ = both_paths(robot, poses, TensionProblem("min_sum"), "closed_form",
+                               monkeypatch, chunk_size=64)
+    held = vars(fast)["_status"]
+    assert isinstance(held, StatusCodes) and held.codes.nbytes == len(poses)
+    success = fast.success
+    assert isinstance(vars(fast)["_status"], StatusCodes)  # success did not decode
+    with ThreadPoolExecutor(8) as pool:
+        read = list(pool.map(lambda _: fast.status, range(8)))
+    assert all(r is read[0] for r in read) and read[0].dtype == STATUS_DTYPE
+    np.testing.assert_array_equal(read[0], slow.status)
+    np.testing.assert_array_equal(success, slow.status == to.Status.OPTIMAL)
+    assert fast.status[17] == to.Status.INFEASIBLE and 0 < success.sum() < len(poses) - 1
+    kinds = set(np.unique(slow.status))
+    assert {to.Status.OPTIMAL, to.Status.INFEASIBLE} <= kinds
+    # The decoded array is the status from then on; copies keep it.
+    first = int(np.flatnonzero(success)[0])
+    fast.status[first] = to.Status.INACCURATE
+    assert not fast.success[first] and fast.success.sum() == success.sum() - 1
+    for copy in (replace(fast), pickle.loads(pickle.dumps(fast))):
+        np.testing.assert_array_equal(copy.status, fast.status)
+    again = pickle.loads(pickle.dumps(both_paths(robot, poses, "min_sum", "closed_form",
+                                                 monkeypatch, chunk_size=64)[0]))
+    np.testing.assert_array_equal(again.status, slow.status)
+
+
+def test_an_earlier_result_given_as_out_takes_the_status_array() -> None:
+    """``out=`` a fresh result (statuses still codes) decodes them once and writes this
+    call's statuses into that array."""
+    robot = presets.algae_harvester()
+    poses = spread_poses(robot, 500, 6)
+    earlier = to.distribute(robot, poses[::-1].copy(), "min_sum", "closed_form",
+                            chunk_size=64)
+    expected = to.distribute(robot, poses, "min_sum", ClosedFormBackend(compiled=False))
+    into = earlier.status
+    result = to.distribute(robot, poses, "min_sum", "closed_form", chunk_size=64,
+                           out=earlier)
+    assert result.status is into
+    np.testing.assert_array_equal(result.status, expected.status)
+    np.testing.assert_array_equal(result.success, expected.success)
+
+
+@given(st.lists(st.sampled_from(list(to.Status)), max_size=40))
+def test_status_codes_round_trip(values: list[to.Status]) -> None:
+    """Every status array encodes to one-byte codes and decodes back; the mask of a
+    status read from the codes is that of the array."""
+    status = np.array([v.value for v in values], dtype=STATUS_DTYPE)
+    codes = StatusCodes(status_codes(status))
+    assert codes.codes.dtype == np.int8
+    np.testing.assert_array_equal(codes.decode(), status)
+    for kind in to.Status:
+        np.testing.assert_array_equal(codes.equal_to(kind), status == kind)
+
+
+def test_status_codes_refuse_other_strings() -> None:
+    with pytest.raises(ValueError, match="'done' is not a Status value"):
+        status_codes(np.array(["optimal", "done"]))
