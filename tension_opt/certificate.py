@@ -325,10 +325,18 @@ def _refit(batch: ScaledBatch, x: NDArray, poses: NDArray, mult: Multipliers) ->
         M[k:k + g, n:n + g] = np.diag(np.minimum(slack[0], 1e6))
         M[k + g:, n + g:] = np.diag(np.minimum(weight, 1e6))
         rhs = np.concatenate([-(one.P[0] * xi[0] + one.c[0]), np.zeros(g + k)])
+        # z_i is the multiplier of the bound its weight charges, the nearer one (either,
+        # where equidistant): free in both directions, a z barely charged (x_i a
+        # rounding error from its bound) took either sign by the rounding of x, and
+        # one of the far bound's sign was charged by that bound's distance in the gap.
+        with np.errstate(invalid="ignore"):
+            to_lb, to_ub = xi[0] - one.lb[0], one.ub[0] - xi[0]
         lo = np.concatenate([np.full(n, -np.inf), np.zeros(g),
-                             np.where(np.isfinite(one.lb[0]), -np.inf, 0.0)])
+                             np.where(np.isfinite(one.lb[0]) & (to_lb <= to_ub), -np.inf,
+                                      0.0)])
         hi = np.concatenate([np.full(n + g, np.inf),
-                             np.where(np.isfinite(one.ub[0]), np.inf, 0.0)])
+                             np.where(np.isfinite(one.ub[0]) & (to_ub <= to_lb), np.inf,
+                                      0.0)])
         free = lo < hi  # a variable pinned to 0 is left out (lsq_linear needs lo < hi)
         try:
             fit = lsq_linear(M[:, free], rhs, bounds=(lo[free], hi[free]), method="bvls",

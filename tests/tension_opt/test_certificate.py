@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 
 import tension_opt as to
 from tension_opt.backends.base import probe_form
+from tension_opt.backends.closed_form import ClosedFormBackend
 from tension_opt.certificate import (
     Multipliers,
     accuracy_target,
@@ -202,3 +203,23 @@ def test_a_smoothed_sequence_is_judged_at_the_accuracy_asked_for() -> None:
         assert sol.accuracy == target
         assert (sol.status == to.Status.OPTIMAL).all()
         assert (sol.primal_residual <= target).all()
+
+
+def test_a_bound_multiplier_barely_charged_takes_the_sign_of_its_bound() -> None:
+    """Min-max on kntu_planar near (0.970, 0.169, 0.083): a cable a few 1e-6 (scaled)
+    above its lower bound and another at its maximum. Its multiplier is barely charged
+    by complementarity, so the sign-constrained refit once gave it a rounding-noise
+    sign; a positive one was charged by the far upper bound in the gap, and the exact
+    answer read ``inaccurate`` on one path and ``optimal`` on the other (12 % of these
+    poses). Within its bound's cone it certifies on both paths, as HiGHS's duals do."""
+    robot = to.presets.kntu_planar()
+    rng = np.random.default_rng(4)
+    poses = np.array([0.970, 0.169, 0.083]) + rng.uniform(-1e-6, 1e-6, (300, 3))
+    x, y = np.linspace(-1.12, 1.12, 100)[92], np.linspace(-1.05, 1.05, 100)[62]
+    poses[:2] = [[x, -y, -0.1], [x, y, 0.1]]  # two poses of a grid over the default box
+    compiled = to.distribute(robot, poses, "min_max", "closed_form")
+    reference = to.distribute(robot, poses, "min_max", ClosedFormBackend(compiled=False))
+    for sol in (compiled, reference):
+        assert (sol.status == Status.OPTIMAL).all(), np.flatnonzero(~sol.success)
+        assert sol.duality_gap.max() < 1e-9
+    np.testing.assert_allclose(compiled.tensions, reference.tensions, rtol=1e-11)
