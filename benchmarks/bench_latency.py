@@ -11,7 +11,8 @@ are timed in CPU time of the calling thread (``time.thread_time_ns``), so that o
 load on a shared machine counts less; the timer's own cost (about 1 us: the clock is a
 system call) is printed as the first row and included in every per-call figure.
 Batches are timed in wall time per pose (``time.perf_counter``) on one and on all numba
-threads: the median of three calls after one untimed call of the same size. A plain
+threads: the median of seven calls after one untimed call of the same size, the
+variants of a row taken in turn (one call of each per round). A plain
 call's results are fresh memory whose page faults it pays (the allocator gives large
 arrays back to the system when freed); its statuses are one-byte codes until read, and
 the ``.status`` row adds decoding them; the ``out=`` row writes into the arrays of an
@@ -211,16 +212,25 @@ def _chunk_threads(threads: int) -> Iterator[None]:
         module.chunk_threads = saved
 
 
-def wall_per_item(fn: Callable[[], object], count: int, runs: int = 3) -> float:
+def wall_per_item(fn: Callable[[], object], count: int, runs: int = 7) -> float:
     """Median wall time (ns) per item of ``fn`` over ``runs`` calls after an untimed
     one (see the module docstring)."""
-    fn()
-    times = []
-    for _ in range(runs):
-        t0 = time.perf_counter()
+    return alternated({"": fn}, count, runs)[""]
+
+
+def alternated(fns: dict[str, Callable[[], object]], count: int, runs: int = 7
+               ) -> dict[str, float]:
+    """:func:`wall_per_item` of several calls, taken in turn (one call of each per
+    round), so that a slower spell of a shared machine falls on all of them alike."""
+    for fn in fns.values():
         fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times)) / count * 1e9
+    times: dict[str, list[float]] = {name: [] for name in fns}
+    for _ in range(runs):
+        for name, fn in fns.items():
+            t0 = time.perf_counter()
+            fn()
+            times[name].append(time.perf_counter() - t0)
+    return {name: float(np.median(t)) / count * 1e9 for name, t in times.items()}
 
 
 def batch_rows(count: int) -> None:
@@ -247,12 +257,14 @@ def batch_rows(count: int) -> None:
         earlier = to.distribute(robot, poses, "min_sum", "closed_form")
         for threads in sorted({1, chunk_threads()}):
             with _chunk_threads(threads):
-                plain = wall_per_item(
-                    lambda p=poses: to.distribute(robot, p, "min_sum", "closed_form"), count)
-                reused = wall_per_item(lambda p=poses, into=earlier: to.distribute(
-                    robot, p, "min_sum", "closed_form", out=into), count)
-                read = wall_per_item(lambda p=poses: to.distribute(
-                    robot, p, "min_sum", "closed_form").status, count)
+                timed = alternated({
+                    "plain": lambda p=poses: to.distribute(robot, p, "min_sum",
+                                                           "closed_form"),
+                    "read": lambda p=poses: to.distribute(robot, p, "min_sum",
+                                                          "closed_form").status,
+                    "reused": lambda p=poses, into=earlier: to.distribute(
+                        robot, p, "min_sum", "closed_form", out=into)}, count)
+            plain, read, reused = timed["plain"], timed["read"], timed["reused"]
             print(f"  {label:<11s} plain call: distribute (compiled), {threads} thread(s) "
                   f"{plain:10.1f} ns/pose  ({before / plain:.1f}x)")
             print(f"  {label:<11s} plain call, then its .status read, {threads} thread(s) "
