@@ -120,7 +120,7 @@ class Backend:
         """
         self.check_solver_options(options)
         raw = honest(self._solve_and_break_ties(form, options))
-        settle_failures(form, raw)  # a silent failure on an infeasible pose says so
+        settle_failures(form, raw, MAX_ERRORS)  # a silent failure or impossible verdict
         return raw
 
     def _certified(self, form: StandardForm, raw: RawResult, target: float) -> RawResult:

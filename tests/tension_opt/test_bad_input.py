@@ -382,3 +382,40 @@ def test_silent_solver_failures_on_infeasible_poses_say_infeasible(study: to.Cab
         reference = to.distribute(study, poses, problem, "scipy:highs")
         assert (reference.status == to.Status.INFEASIBLE).sum() >= 10
         np.testing.assert_array_equal(got.status, reference.status)
+
+
+def test_an_unbounded_verdict_on_an_objective_bounded_below_is_checked(
+        study: to.CableRobot) -> None:
+    """A solver's ``unbounded`` on a problem whose objective is bounded below on its
+    bounds cannot be right: a feasibility LP makes it ``infeasible`` where proven, else
+    ``solver_error`` with a message. A problem that can be unbounded (a negative cost
+    on a variable without an upper bound) keeps the verdict."""
+    from dataclasses import replace
+
+    from tension_opt.backends.base import RawResult
+    from tension_opt.backends.feasibility import settle_failures
+    from tension_opt.status import status_array
+
+    rng = np.random.default_rng(0)
+    low, high = study.anchors.min(axis=0), study.anchors.max(axis=0)
+    poses = rng.uniform(low - [0.0, 0.0, 9.0], high - [0.0, 0.0, 0.5], (60, 3))
+    exact = to.distribute(study, poses, "min_sum", "closed_form")
+    feasible = int(np.flatnonzero(exact.status == to.Status.OPTIMAL)[0])
+    infeasible = int(np.flatnonzero(exact.status == to.Status.INFEASIBLE)[0])
+    form = to.TensionProblem("min_norm").standard_form(study, poses[[feasible, infeasible]])
+    for kind, expected in ((form, [to.Status.SOLVER_ERROR, to.Status.INFEASIBLE]),
+                           (replace(form, q=np.zeros_like(form.q), c=-np.ones_like(form.c)),
+                            [to.Status.UNBOUNDED, to.Status.UNBOUNDED])):
+        raw = RawResult(np.ones((2, 4)), status_array(2, to.Status.UNBOUNDED),
+                        np.zeros(2, dtype=int))
+        settle_failures(kind, raw)
+        assert raw.status.tolist() == expected
+        if expected[0] == to.Status.SOLVER_ERROR:
+            assert np.isnan(raw.tensions).all()
+            assert "said unbounded" in raw.extras["errors"][0]
+            assert 1 not in raw.extras["errors"]
+    # Clarabel on a reference of 1e19 N (a feasible problem) said unbounded.
+    if "cvxpy:CLARABEL" in to.available_backends():
+        sol = to.distribute(study, poses[exact.success][:20], to.TensionProblem(
+            "min_norm", reference=1e19), "cvxpy:CLARABEL")
+        assert not (sol.status == to.Status.UNBOUNDED).any()
