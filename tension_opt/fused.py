@@ -181,7 +181,9 @@ class CertifiedBatch:
         backend = self.plan.backend
         return TensionSolution(
             tensions=self.tensions, unique=self.unique,
-            status=StatusCodes(self.codes) if self.status is None else self.status,
+            # the field's descriptor takes codes too (decoded when read)
+            status=StatusCodes(self.codes) if self.status is None  # type: ignore[arg-type]
+            else self.status,
             iterations=self.iterations, setup_time=setup_time, solve_time=solve_time,
             backend=backend.name, solver=backend.solver, solver_version=backend.version,
             problem=problem, extras=extras, form=None, accuracy=self.plan.target,

@@ -53,21 +53,23 @@ class _StatusField:
     """The ``status`` field of a :class:`TensionSolution`: an array of :class:`Status`
     values, which may be given as :class:`~tension_opt.status.StatusCodes` and is then
     decoded when first read, once, whatever the threads reading it (the decoded array
-    is kept and is the status from then on: writes into it hold)."""
+    is kept and is the status from then on: writes into it hold). The value lives in
+    the instance's ``_status`` attribute."""
 
     def __set_name__(self, owner: type, name: str) -> None:
-        self.slot = f"_{name}"
+        self.name, self.slot = name, f"_{name}"
 
     def __get__(self, obj: Any, owner: type | None = None) -> NDArray:
         if obj is None:  # no default for the dataclass field
-            raise AttributeError("status has no default")
-        held = obj.__dict__[self.slot]
+            raise AttributeError(f"{self.name} has no default")
+        held = obj.__dict__.get(self.slot)
+        if held is None:
+            raise AttributeError(self.name)
         if isinstance(held, StatusCodes):
-            decoded = held.decode()
-            with _DECODING:
+            with _DECODING:  # one decoding, even for threads that read at once
                 held = obj.__dict__[self.slot]
                 if isinstance(held, StatusCodes):
-                    held = obj.__dict__[self.slot] = decoded
+                    held = obj.__dict__[self.slot] = held.decode()
         return held
 
     def __set__(self, obj: Any, value: NDArray | StatusCodes) -> None:
@@ -75,7 +77,9 @@ class _StatusField:
 
     def equal_to(self, obj: Any, status: Status) -> NDArray:
         """Mask of the poses of ``obj`` whose status is ``status`` (not decoding codes)."""
-        held = obj.__dict__[self.slot]
+        held = obj.__dict__.get(self.slot)
+        if held is None:
+            raise AttributeError(self.name)
         if isinstance(held, StatusCodes):
             return held.equal_to(status)
         return np.asarray(held == status, dtype=bool)
@@ -96,7 +100,9 @@ class TensionSolution:
         Of :data:`~tension_opt.status.STATUS_DTYPE`. A large batch on the compiled
         closed form holds it as one-byte codes, decoded when first read (a
         :class:`~tension_opt.status.StatusCodes` may be given for it); :attr:`success`
-        reads the codes without decoding them.
+        reads the codes without decoding them. It is kept as ``_status`` in the
+        instance's ``__dict__``; a shallow copy of a result not yet read decodes its own
+        array.
     unique : ndarray of bool, shape (N,)
         False where the optimum is not unique (the tie was broken to the minimum
         2-norm among the optima).

@@ -60,6 +60,7 @@ def status_array(shape: int | tuple[int, ...], fill: Status = Status.OPTIMAL) ->
 #: Every :class:`Status` value in the order of its code (:class:`StatusCodes`): the
 #: compiled kernels' codes 0-3 are optimal, infeasible, unbounded and inaccurate.
 STATUS_TABLE = np.array([s.value for s in Status], dtype=STATUS_DTYPE)
+STATUS_TABLE.setflags(write=False)  # every decoding reads it
 
 
 @dataclass(frozen=True, eq=False)

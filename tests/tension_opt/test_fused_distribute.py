@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import importlib
 import pickle
+import threading
+import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import fields, replace
 
@@ -32,7 +34,7 @@ from tension_opt.errors import InvalidInputError
 from tension_opt.fused import CertifiedBatch, certified_plan
 from tension_opt.problems import TensionProblem
 from tension_opt.sampling import default_box
-from tension_opt.status import STATUS_DTYPE, StatusCodes, status_codes
+from tension_opt.status import STATUS_DTYPE, STATUS_TABLE, StatusCodes, status_codes
 
 distribute_module = importlib.import_module("tension_opt.distribute")
 
@@ -373,8 +375,24 @@ def test_fresh_results_hold_one_byte_codes_until_the_statuses_are_read(
     assert isinstance(held, StatusCodes) and held.codes.nbytes == len(poses)
     success = fast.success
     assert isinstance(vars(fast)["_status"], StatusCodes)  # success did not decode
+    # Eight threads read at once: one decoding, one array.
+    decodings, start = [], threading.Barrier(8)
+    decode = StatusCodes.decode
+
+    def counted(codes: StatusCodes) -> np.ndarray:
+        decodings.append(1)
+        time.sleep(0.05)  # long enough for every thread to arrive
+        return decode(codes)
+
+    def read_status(_: int) -> np.ndarray:
+        start.wait()
+        return fast.status
+
+    monkeypatch.setattr(StatusCodes, "decode", counted)
     with ThreadPoolExecutor(8) as pool:
-        read = list(pool.map(lambda _: fast.status, range(8)))
+        read = list(pool.map(read_status, range(8)))
+    monkeypatch.undo()
+    assert len(decodings) == 1
     assert all(r is read[0] for r in read) and read[0].dtype == STATUS_DTYPE
     np.testing.assert_array_equal(read[0], slow.status)
     np.testing.assert_array_equal(success, slow.status == to.Status.OPTIMAL)
@@ -400,10 +418,10 @@ def test_an_earlier_result_given_as_out_takes_the_status_array() -> None:
     earlier = to.distribute(robot, poses[::-1].copy(), "min_sum", "closed_form",
                             chunk_size=64)
     expected = to.distribute(robot, poses, "min_sum", ClosedFormBackend(compiled=False))
-    into = earlier.status
+    assert isinstance(vars(earlier)["_status"], StatusCodes)
     result = to.distribute(robot, poses, "min_sum", "closed_form", chunk_size=64,
                            out=earlier)
-    assert result.status is into
+    assert result.status is earlier.status
     np.testing.assert_array_equal(result.status, expected.status)
     np.testing.assert_array_equal(result.success, expected.success)
 
@@ -423,3 +441,13 @@ def test_status_codes_round_trip(values: list[to.Status]) -> None:
 def test_status_codes_refuse_other_strings() -> None:
     with pytest.raises(ValueError, match="'done' is not a Status value"):
         status_codes(np.array(["optimal", "done"]))
+    assert not STATUS_TABLE.flags.writeable
+
+
+def test_a_result_without_its_status_says_so() -> None:
+    """A result object missing its status (made field by field, or an old pickle) has
+    no ``status`` attribute: ``AttributeError``, so that ``getattr`` defaults work."""
+    bare = object.__new__(to.TensionSolution)
+    assert getattr(bare, "status", "none") == "none"
+    with pytest.raises(AttributeError, match="status"):
+        _ = bare.success
