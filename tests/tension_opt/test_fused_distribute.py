@@ -18,6 +18,7 @@ import importlib
 import pickle
 import threading
 import time
+import tracemalloc
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import fields, replace
 
@@ -33,7 +34,7 @@ from tension_opt.backends.closed_form import ClosedFormBackend
 from tension_opt.errors import InvalidInputError
 from tension_opt.fused import CertifiedBatch, certified_plan
 from tension_opt.problems import TensionProblem
-from tension_opt.sampling import default_box
+from tension_opt.sampling import default_box, random_feasible_poses
 from tension_opt.status import STATUS_DTYPE, STATUS_TABLE, StatusCodes, status_codes
 
 distribute_module = importlib.import_module("tension_opt.distribute")
@@ -451,3 +452,25 @@ def test_a_result_without_its_status_says_so() -> None:
     assert getattr(bare, "status", "none") == "none"
     with pytest.raises(AttributeError, match="status"):
         _ = bare.success
+
+
+def test_a_fresh_result_holds_about_150_bytes_a_pose() -> None:
+    """The results of a large plain call on the study robot: tensions (32 bytes a pose),
+    multipliers (56), seven measures (56), uniqueness and a status code (1 each) and
+    iteration counts (8, zeros the system gives lazily): 154 bytes a pose, where statuses
+    as strings took 60 more, which reading ``.status`` adds."""
+    robot = presets.algae_harvester()
+    N = 40_000
+    poses = random_feasible_poses(robot, N, 9)
+    to.distribute(robot, poses[:5000], "min_sum", "closed_form")
+    tracemalloc.start()
+    try:
+        sol = to.distribute(robot, poses, "min_sum", "closed_form")
+        held, peak = tracemalloc.get_traced_memory()
+        _ = sol.status
+        read = tracemalloc.get_traced_memory()[0]
+    finally:
+        tracemalloc.stop()
+    assert sol.success.all()
+    assert 150 * N < held < 160 * N and peak < held + 2e6, (held / N, peak / N)
+    assert read - held == pytest.approx(60 * N, rel=0.02)
