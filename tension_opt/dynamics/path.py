@@ -32,7 +32,12 @@ from tension_opt.dynamics.wrench import inertia_terms
 from tension_opt.errors import InvalidInputError
 from tension_opt.robot import CableRobot
 
-__all__ = ["PathSpline", "PathStages", "path_stages"]
+__all__ = ["MAX_GRID", "PathSpline", "PathStages", "path_stages"]
+
+#: Most grid points of a timing: each is a linear program (one pass of the
+#: reachability method takes about 1 ms a point), and the convex program holds them
+#: all at once.
+MAX_GRID = 100_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,16 +85,29 @@ class PathSpline:
         return float(self.s[-1])
 
     def grid(self, gridpoints: int | ArrayLike | None = None) -> NDArray:
-        """Grid of ``s``: the poses' own (None), ``count`` evenly spaced values, or
-        the given increasing values from 0 to :attr:`length`."""
+        """Grid of ``s``: the poses' own (None; three evenly spaced values for a path of
+        two poses), ``count`` evenly spaced values, or the given increasing values from
+        0 to :attr:`length`; from 3 (at rest at both ends, a path of two grid points
+        cannot move) to :data:`MAX_GRID` points.
+
+        Raises
+        ------
+        InvalidInputError
+            Naming ``gridpoints``.
+        """
         if gridpoints is None:
-            return self.s.copy()
+            return self.s.copy() if len(self.s) > 2 else np.linspace(0.0, self.length, 3)
         if isinstance(gridpoints, int | np.integer) and not isinstance(gridpoints, bool):
-            if gridpoints < 2:
-                raise InvalidInputError(f"gridpoints must be at least 2, got {gridpoints}")
+            if not 3 <= gridpoints <= MAX_GRID:
+                raise InvalidInputError(
+                    f"gridpoints must be from 3 to {MAX_GRID}, got {gridpoints}: at rest at "
+                    "both ends, two points cannot move, and every point is a linear program")
             return np.linspace(0.0, self.length, int(gridpoints))
         g = as_finite("gridpoints", gridpoints)
-        if g.ndim != 1 or g.size < 2 or (np.diff(g) <= 0).any() or not (
+        if g.ndim != 1 or not 3 <= g.size <= MAX_GRID:
+            raise InvalidInputError(f"gridpoints must be a count (an int) or 3 to {MAX_GRID} "
+                                    f"values, got shape {g.shape}")
+        if (np.diff(g) <= 0).any() or not (
                 np.isclose(g[0], 0.0) and np.isclose(g[-1], self.length)):
             raise InvalidInputError(
                 f"gridpoints must increase from 0 to the path length {self.length:g}")

@@ -41,7 +41,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.backends.registry import choose_backend
-from tension_opt.checks import as_float_array
+from tension_opt.checks import as_float_array, is_number
 from tension_opt.distribute import solution_of
 from tension_opt.dynamics.path import PathSpline, PathStages, path_stages
 from tension_opt.dynamics.stage_lp import StageLP
@@ -54,10 +54,12 @@ from tension_opt.problems import Objective, TensionProblem, as_problem
 from tension_opt.robot import CableRobot
 from tension_opt.status import Status, status_array
 
-__all__ = ["TimingResult", "motion_limits", "time_optimal"]
+__all__ = ["STOP_TOL", "TimingResult", "motion_limits", "time_optimal"]
 
 #: Forward-pass retries, each lowering x_k by this fraction, on a barely infeasible LP.
 _RETRIES, _BACKOFF = 8, 1e-7
+#: ``s'^2`` at or below this share of its largest value along the path counts as zero.
+STOP_TOL = 1e-9
 
 
 def motion_limits(name: str, value: float | ArrayLike | None, n: int) -> NDArray:
@@ -143,7 +145,11 @@ class TimingResult:
         Tensions holding ``wrenches`` chosen by the objective (N); NaN where none.
     status : ndarray of str, shape (K,)
         ``OPTIMAL``; ``INFEASIBLE`` where no timing can pass the point (others
-        ``NOT_RUN``); ``UNBOUNDED`` if nothing limits the speed; a tension solve's status.
+        ``NOT_RUN``); ``UNBOUNDED`` if nothing limits the speed; ``STALLED`` at the
+        second of two neighbouring points where ``s'^2`` is zero (within
+        :data:`STOP_TOL` of its largest value: the segment would take forever; the
+        reachability method's greedy pass can stall where the convex method finds a
+        timing); a tension solve's status.
     margin : ndarray, shape (K,)
         Capacity margin of the wrench (N): zero where the tension limits bind.
     active_tension : ndarray of bool, shape (K,)
@@ -316,8 +322,8 @@ def time_optimal(
     objective, backend
         Choose the reported tensions, as in :func:`tension_opt.distribute`.
     gridpoints : int or array_like, optional
-        Grid of the path parameter: the poses' own (default), a number of evenly spaced
-        points, or the values (from 0 to the path length).
+        Grid of ``s``, 3 to 100000 points (``PathSpline.grid``): the poses' own
+        (default), a count of evenly spaced ones, or the values.
     method : {"convex", "reachability"}
         The convex time minimisation through cvxpy (default: the global optimum of the
         discretised problem), or TOPP-RA's greedy passes with HiGHS (module docstring).
@@ -329,11 +335,10 @@ def time_optimal(
         Tension bounds at the grid points replacing the robot's (N).
     wrench : array_like, shape (n,) or (K, n), optional
         External wrench besides gravity and inertia (N, N m).
-    tension_slack : float
+    tension_slack, active_tol : float
         Keep the tensions this fraction of a typical tension (N) inside their bounds,
-        so that the reported ones are strictly feasible (costs as much time, relative).
-    active_tol : float
-        Relative tolerance for reporting a limit as active.
+        so that they are strictly feasible (costs as much time, relative), in [0, 0.5);
+        relative tolerance for reporting a limit as active, in [0, 1).
     **options
         Passed to the tension backend; ``previous`` (K, m): the tensions a smoothed
         objective stays close to, point by point.
@@ -341,17 +346,18 @@ def time_optimal(
     Returns
     -------
     TimingResult
-        ``times``, ``duration``, ``velocities``, ``accelerations``, ``tensions``,
-        per-point ``status``, the margin and the active limits. A path that cannot be
-        timed (a point the robot cannot hold, or no way from rest to rest) has
-        ``duration = inf`` and per-point statuses; it raises nothing.
+        ``times``, ``duration``, motion, ``tensions``, per-point ``status``, the margin
+        and the active limits. A path that cannot be timed (a point the robot cannot
+        hold, no way from rest to rest, or a timing that stops the path: ``STALLED``)
+        has ``duration = inf`` and per-point statuses; it raises nothing.
 
     Raises
     ------
     InvalidInputError
-        On a bad path, limits, grid, structure, bounds or method.
+        On a bad path, limits, grid, structure, bounds, method or setting.
     """
     t0 = time.perf_counter()
+    _check_fractions(tension_slack=(tension_slack, 0.5), active_tol=(active_tol, 1.0))
     spline = path if isinstance(path, PathSpline) else PathSpline.through(robot, path)
     stages = path_stages(robot, spline, spline.grid(gridpoints), structure=structure,
                          bounds=bounds, wrench=wrench)
@@ -365,6 +371,14 @@ def time_optimal(
                           used, count, time.perf_counter() - t0, extras)
     return _timed(robot, stages, x, u, sets, (vmax, amax), problem, bounds is not None,
                   backend, options, active_tol, used, count, t0, extras)
+
+
+def _check_fractions(**given: tuple[object, float]) -> None:
+    """Each setting ``name=(value, top)`` a number in ``[0, top)``, or the package's
+    error naming it."""
+    for name, (value, top) in given.items():
+        if not (is_number(value) and 0.0 <= float(value) < top):  # type: ignore[arg-type]
+            raise InvalidInputError(f"{name} must be a number in [0, {top}), got {value!r}")
 
 
 def _no_timing(robot: CableRobot, stages: PathStages, status: NDArray, sets: NDArray,
@@ -386,8 +400,16 @@ def _timed(robot: CableRobot, stages: PathStages, x: NDArray, u: NDArray, sets: 
     """The result of a timing ``x, u``: times, motion, tensions and active limits."""
     x = np.maximum(x, 0.0)
     sd = np.sqrt(x)
-    with np.errstate(divide="ignore"):
-        dt = 2.0 * np.diff(stages.s) / (sd[:-1] + sd[1:])
+    # Zero to the LPs' tolerance: the path would stop there, and a segment between two
+    # such points take forever (or, from rounding, millions of seconds).
+    stopped = x <= STOP_TOL * max(float(x.max(initial=0.0)), np.finfo(float).tiny)
+    stalls = stopped[:-1] & stopped[1:]
+    if stalls.any():  # no timing
+        status = status_array(stages.K, Status.NOT_RUN)
+        status[1:][stalls] = Status.STALLED
+        return _no_timing(robot, stages, status, sets, method, count,
+                          time.perf_counter() - t0, extras)
+    dt = 2.0 * np.diff(stages.s) / (sd[:-1] + sd[1:])
     times = np.concatenate([[0.0], np.cumsum(dt)])
     vel, acc = stages.motion(u, x)
     W = stages.wrenches(u, x)

@@ -157,6 +157,13 @@ def test_bad_timing_input_raises(study) -> None:
         dyn.time_optimal(robot, path, a_max=-1.0)
     with pytest.raises(to.InvalidInputError, match="gridpoints"):
         dyn.time_optimal(robot, path, gridpoints=[0.0, 1.0])
+    for grid in (2, 10**6):
+        with pytest.raises(to.InvalidInputError, match="gridpoints must be from 3 to"):
+            dyn.time_optimal(robot, path, gridpoints=grid)
+    for setting in ({"tension_slack": -0.5}, {"tension_slack": np.nan},
+                    {"tension_slack": "x"}, {"active_tol": -1.0}, {"active_tol": np.nan}):
+        with pytest.raises(to.InvalidInputError, match=next(iter(setting))):
+            dyn.time_optimal(robot, path, **setting)
     with pytest.raises(to.InvalidInputError, match="structure"):
         dyn.time_optimal(robot, path, structure=np.zeros((3, 3, 4)))
     with pytest.raises(to.InvalidInputError, match="method"):
@@ -237,3 +244,32 @@ def test_planar_body_timing() -> None:
     assert b.duration > a.duration
     greedy = dyn.time_optimal(robot, turning, v_max=[1.0, 1.0, 2.0], method="reachability")
     assert b.duration <= greedy.duration * (1 + 1e-6)
+
+
+def test_two_poses_are_timed_bang_bang() -> None:
+    """A path of two poses gets three grid points (two at rest cannot move): constant
+    acceleration to the middle, then braking, with the acceleration limit of the
+    coordinate that moves most binding: ``2 sqrt(L max|d_j| / a_max)``. (With two
+    points it took infinite time yet read optimal.)"""
+    robot = to.presets.algae_harvester()
+    path = pick_and_place()[:2]
+    result = dyn.time_optimal(robot, path, a_max=1.0)
+    step = path[1] - path[0]
+    length = float(np.linalg.norm(step))
+    expected = 2.0 * np.sqrt(length * np.abs(step / length).max() / 1.0)
+    assert result.success and len(result.s) == 3
+    assert result.duration == pytest.approx(expected, rel=1e-6)
+
+
+def test_a_timing_that_stops_the_path_is_no_timing() -> None:
+    """Without an upper tension bound, at 2 m/s, the reachability method's greedy pass
+    brings the platform to rest one point before the end (s'^2 = 2e-15): the last
+    segment took 22 million seconds and read optimal. It is no timing (``STALLED``);
+    the convex method times the same path in a few seconds."""
+    robot, path = to.presets.algae_harvester(), pick_and_place()
+    greedy = dyn.time_optimal(robot, path, v_max=2.0, method="reachability")
+    assert not greedy.success and greedy.duration == np.inf
+    assert (greedy.status == to.Status.STALLED).sum() == 1
+    assert set(greedy.status) == {to.Status.STALLED, to.Status.NOT_RUN}
+    convex = dyn.time_optimal(robot, path, v_max=2.0)
+    assert convex.success and 3.0 < convex.duration < 10.0
