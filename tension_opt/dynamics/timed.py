@@ -30,7 +30,11 @@ from tension_opt.robot import CableRobot
 from tension_opt.solution import TensionSolution
 from tension_opt.trajectory import smooth_jointly
 
-__all__ = ["TimedTrajectory", "check_times", "distribute_trajectory"]
+__all__ = ["MAX_SAMPLES", "TimedTrajectory", "check_times", "distribute_trajectory"]
+
+#: Most samples of a trajectory made with a step ``dt`` (each holds a pose, its velocity
+#: and acceleration, and later its tensions).
+MAX_SAMPLES = 10_000_000
 
 Method = Literal["quintic", "cubic", "rest"]
 
@@ -202,7 +206,12 @@ def _sample_times(total: float, dt: float, times: ArrayLike | None) -> NDArray:
             raise InvalidInputError(f"times must lie within [0, {total}] s")
         return t
     check_positive("dt", dt)
-    count = int(np.ceil(total / dt - 1e-9)) + 1
+    steps = total / dt
+    if not steps <= MAX_SAMPLES - 1:  # also a duration so long that it overflows
+        raise InvalidInputError(
+            f"dt = {dt:g} s over {total:g} s gives more than {MAX_SAMPLES:.0e} samples: "
+            "give a larger dt (or the times to sample)")
+    count = int(np.ceil(steps - 1e-9)) + 1
     return np.linspace(0.0, total, max(count, 2))
 
 

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.backends.base import Backend
 from tension_opt.backends.registry import get_backend
+from tension_opt.checks import as_float_array
 from tension_opt.distribute import distribute
 from tension_opt.errors import InvalidInputError
 from tension_opt.executors import Executor, chunk_slices, merge_chunks, run_chunks
@@ -52,7 +53,7 @@ def _as_wrenches(robot: CableRobot, wrenches: ArrayLike | None) -> NDArray:
     """External wrenches as (K, n), finite; a zero row (the weight alone) for None."""
     if wrenches is None:
         return np.zeros((1, robot.dof))
-    W = np.asarray(wrenches, dtype=float)
+    W = as_float_array("wrenches", wrenches)
     if W.ndim == 1:
         W = W[None]
     if W.ndim != 2 or W.shape[1] != robot.dof or W.shape[0] < 1:

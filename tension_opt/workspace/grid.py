@@ -12,6 +12,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from tension_opt.checks import as_float_array
 from tension_opt.errors import InvalidInputError
 
 __all__ = [
@@ -197,8 +198,8 @@ def check_box(lower: ArrayLike, upper: ArrayLike) -> tuple[NDArray, NDArray]:
     InvalidInputError
         On corners of different lengths, non-finite values or ``upper < lower``.
     """
-    lo = np.atleast_1d(np.asarray(lower, dtype=float))
-    hi = np.atleast_1d(np.asarray(upper, dtype=float))
+    lo = np.atleast_1d(as_float_array("lower", lower))
+    hi = np.atleast_1d(as_float_array("upper", upper))
     if lo.shape != hi.shape or lo.ndim != 1:
         raise InvalidInputError(f"lower and upper must be vectors of one length; got "
                                 f"{lo.shape} and {hi.shape}")
@@ -247,21 +248,27 @@ def sample_poses(lower: ArrayLike, upper: ArrayLike, count: int,
     lower, upper : array_like, shape (n,)
         Corners of the box (m, rad), finite.
     count : int
-        Number of poses N >= 1 (a whole number).
+        Number of poses N, a whole number from 1 to ``MAX_GRID_POINTS`` (5e7).
     seed : int or numpy.random.Generator, optional
 
     Returns
     -------
     ndarray, shape (N, n)
+
+    Raises
+    ------
+    InvalidInputError
+        Naming the box or ``count``.
     """
     lo, hi = check_box(lower, upper)
     try:
         whole = (not isinstance(count, (bool, np.bool_)) and float(count).is_integer()
-                 and count >= 1)
+                 and 1 <= count <= MAX_GRID_POINTS)
     except (TypeError, ValueError, OverflowError):
         whole = False
     if not whole:
-        raise InvalidInputError(f"count must be a whole number >= 1; got {count!r}")
+        raise InvalidInputError(f"count must be a whole number from 1 to "
+                                f"{MAX_GRID_POINTS:.0e}; got {count!r}")
     rng = np.random.default_rng(seed)
     return lo + (hi - lo) * rng.random((int(count), lo.size))
 

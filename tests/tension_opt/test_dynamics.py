@@ -290,6 +290,11 @@ def test_bad_input_raises_the_packages_error(study_motion) -> None:
                             traj.poses[:3], "point3")
     with pytest.raises(to.InvalidInputError, match="durations"):
         dyn.TimedTrajectory.from_waypoints(robot, traj.poses[:3], [1.0, -1.0])
+    # 4e9 samples (30 GB), and a duration whose samples overflow: a larger dt, not a
+    # MemoryError or numpy's error.
+    for durations, dt in (([2.0, 2.0], 1e-9), ([1e300, 1e300], 0.01)):
+        with pytest.raises(to.InvalidInputError, match="give a larger dt"):
+            dyn.TimedTrajectory.from_waypoints(robot, traj.poses[:3], durations, dt=dt)
     with pytest.raises(to.InvalidInputError, match="spatial6"):
         dyn.distribute_trajectory(to.presets.cogiro(), traj)
 

@@ -329,10 +329,19 @@ def test_grid_and_sample_input_checks():
         ws.workspace_grid(*box, spacing=1e-4)
     with pytest.raises(to.InvalidInputError, match="points"):
         ws.workspace_grid(*box, counts=[1000, 1000, 1000])
-    for lower, count in (([np.nan], 3), ([0.0], 2.5), ([0.0], 0), ([0.0], "3"), ([2.0], 3)):
+    for lower, count in (([np.nan], 3), ([0.0], 2.5), ([0.0], 0), ([0.0], "3"), ([2.0], 3),
+                         ([0.0], 10**12)):  # 10^12 poses: no MemoryError
         with pytest.raises(to.InvalidInputError):
             ws.sample_poses(lower, [1.0], count)
     assert ws.sample_poses([0.0], [1.0], 3.0).shape == (3, 1)
+    # Text, complex and ragged input: the package's error naming the argument.
+    for corner, name in (([0.0, 0.0, 1j], "lower"), ("abc", "lower")):
+        with pytest.raises(to.InvalidInputError, match=name):
+            ws.workspace_grid(corner, [1.0, 1.0, 1.0], counts=3)
+    robot = to.presets.algae_harvester()
+    for wrenches in ("abc", [0.0, 0.0, 1j], [[0.0, 0.0, 0.0], [0.0, 0.0]]):
+        with pytest.raises(to.InvalidInputError, match="wrenches"):
+            ws.wrench_feasible_workspace(robot, robot.default_home()[None], wrenches=wrenches)
 
 
 def test_vertical_slice_is_drawn_in_y_and_z(thesis):
