@@ -181,9 +181,14 @@ def workspace_grid(lower: ArrayLike, upper: ArrayLike, spacing: ArrayLike | None
             axes.append(a + (w / k) * (np.arange(k) + 0.5))
         else:
             axes.append(np.linspace(a, b, k))
-    mesh = np.meshgrid(*axes, indexing="ij")
-    poses = np.stack([g.ravel() for g in mesh], axis=1)
-    return Grid(poses, tuple(len(a) for a in axes), tuple(axes), lo.copy(), hi.copy())
+    shape = tuple(len(a) for a in axes)
+    # The poses of numpy.meshgrid(*axes, indexing="ij"), raveled, written in place: the
+    # mesh and a stack of it took three times the poses' memory at once.
+    poses = np.empty((int(np.prod(shape)), len(axes)))
+    cube = poses.reshape(*shape, len(axes))
+    for j, axis in enumerate(axes):
+        cube[..., j] = axis.reshape([-1 if i == j else 1 for i in range(len(axes))])
+    return Grid(poses, shape, tuple(axes), lo.copy(), hi.copy())
 
 
 def check_box(lower: ArrayLike, upper: ArrayLike) -> tuple[NDArray, NDArray]:

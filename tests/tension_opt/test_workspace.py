@@ -359,3 +359,24 @@ def test_vertical_slice_is_drawn_in_y_and_z(thesis):
                                                                   spacing=1.0))
     with pytest.raises(to.InvalidInputError, match="two position coordinates"):
         ws.plot_slice(line)
+
+
+def test_a_grid_takes_the_memory_of_its_poses() -> None:
+    """The poses of ``numpy.meshgrid(..., indexing="ij")`` in the same order, written in
+    place: the peak is the poses (the mesh and its stack took twice as much)."""
+    import tracemalloc
+
+    for counts in ([4, 1, 6], [3, 4, 5, 2, 1, 3]):
+        n = len(counts)
+        upper = np.where(np.array(counts) > 1, 1.0, 0.0)
+        g = ws.workspace_grid(np.zeros(n), upper, counts=counts)
+        mesh = np.meshgrid(*g.axes, indexing="ij")
+        np.testing.assert_array_equal(g.poses, np.stack([m.ravel() for m in mesh], axis=1))
+    tracemalloc.start()
+    try:
+        g = ws.workspace_grid(np.zeros(6), np.ones(6), counts=10)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert g.poses.shape == (10**6, 6)
+    assert peak < 1.05 * g.poses.nbytes, peak / g.poses.nbytes
