@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import CubicSpline
 
-from tension_opt.checks import as_finite
+from tension_opt.checks import as_finite, as_float_array
 from tension_opt.dynamics.rotation import twist_rates
 from tension_opt.dynamics.wrench import inertia_terms
 from tension_opt.errors import InvalidInputError
@@ -71,7 +71,11 @@ class PathSpline:
         q = robot.as_poses(path)
         if q.shape[0] < 2:
             raise InvalidInputError(f"path must hold at least 2 poses, got {q.shape[0]}")
-        step = np.linalg.norm(np.diff(q, axis=0), axis=1)
+        with np.errstate(over="ignore"):
+            step = np.linalg.norm(np.diff(q, axis=0), axis=1)
+        if not np.isfinite(step.sum()):
+            raise InvalidInputError("path poses are too far apart to measure (the length "
+                                    "overflows): give them in m and rad")
         if (step <= 1e-12 * max(1.0, float(np.abs(q).max()))).any():
             k = int(np.argmax(step <= 1e-12 * max(1.0, float(np.abs(q).max()))))
             raise InvalidInputError(
@@ -161,7 +165,7 @@ class PathStages:
 
 
 def _per_point(name: str, value: ArrayLike, shape: tuple[int, ...]) -> NDArray:
-    arr = np.asarray(value, dtype=float)
+    arr = as_float_array(name, value)
     try:
         return np.array(np.broadcast_to(arr, shape))
     except ValueError:
@@ -199,6 +203,8 @@ def path_stages(robot: CableRobot, path: PathSpline, s: NDArray, *,
     A = robot.structure_matrices(q) if structure is None else as_finite("structure", structure)
     if A.shape != (K, n, m):
         raise InvalidInputError(f"structure must have shape {(K, n, m)}, got {A.shape}")
+    if bounds is not None and not (isinstance(bounds, tuple | list) and len(bounds) == 2):
+        raise InvalidInputError("bounds must be a pair (t_min, t_max), each (m,) or (K, m)")
     lo, hi = (robot.t_min, robot.t_max) if bounds is None else bounds
     lb, ub = _per_point("t_min", lo, (K, m)), _per_point("t_max", hi, (K, m))
     if not np.isfinite(lb).all() or np.isnan(ub).any() or (lb > ub).any():

@@ -157,6 +157,12 @@ def test_bad_timing_input_raises(study) -> None:
         dyn.time_optimal(robot, path, a_max=-1.0)
     with pytest.raises(to.InvalidInputError, match="gridpoints"):
         dyn.time_optimal(robot, path, gridpoints=[0.0, 1.0])
+    for bounds, name in ((("a", 1.5e4), "t_min"), ((1j, 1.5e4), "t_min"),
+                         ((1.0, 2.0, 3.0), "bounds must be a pair")):
+        with pytest.raises(to.InvalidInputError, match=name):
+            dyn.time_optimal(robot, path, bounds=bounds)
+    with pytest.raises(to.InvalidInputError, match="too far apart"):
+        dyn.time_optimal(robot, path * 1e200)
     for grid in (2, 10**6):
         with pytest.raises(to.InvalidInputError, match="gridpoints must be from 3 to"):
             dyn.time_optimal(robot, path, gridpoints=grid)
