@@ -305,7 +305,7 @@ def time_optimal(
     structure: ArrayLike | None = None,
     bounds: tuple[ArrayLike, ArrayLike] | None = None,
     wrench: ArrayLike | None = None,
-    tension_slack: float = 1e-7,
+    tension_slack: float = 1e-6,
     active_tol: float = 1e-5,
     **options: Any,
 ) -> TimingResult:
@@ -337,7 +337,7 @@ def time_optimal(
         External wrench besides gravity and inertia (N, N m).
     tension_slack, active_tol : float
         Keep the tensions this fraction of a typical tension (N) inside their bounds,
-        so that they are strictly feasible (costs as much time, relative), in [0, 0.5);
+        beyond the LPs' tolerance (costs as much time, relative), in [0, 0.5);
         relative tolerance for reporting a limit as active, in [0, 1).
     **options
         Passed to the tension backend; ``previous`` (K, m): the tensions a smoothed

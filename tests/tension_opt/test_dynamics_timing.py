@@ -279,3 +279,15 @@ def test_a_timing_that_stops_the_path_is_no_timing() -> None:
     assert set(greedy.status) == {to.Status.STALLED, to.Status.NOT_RUN}
     convex = dyn.time_optimal(robot, path, v_max=2.0)
     assert convex.success and 3.0 < convex.duration < 10.0
+
+
+def test_a_fine_grid_keeps_the_tensions_feasible(study) -> None:
+    """On 3000 points the reachability passes accepted wrenches up to the LPs' tolerance
+    (2e-7 of a typical tension) outside the feasible set, beyond the 1e-7 slack then kept:
+    two points read infeasible. The slack (1e-6, costing as much time) covers it."""
+    robot, path = study
+    fine = dyn.time_optimal(robot, path, gridpoints=3000, method="reachability")
+    assert fine.success, np.flatnonzero(fine.status != to.Status.OPTIMAL)
+    assert (fine.margin >= 0).all()
+    coarse = dyn.time_optimal(robot, path, gridpoints=200, method="reachability")
+    assert fine.duration == pytest.approx(coarse.duration, rel=2e-2)  # discretisation
