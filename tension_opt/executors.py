@@ -265,9 +265,17 @@ def _is_dask_client(obj: object) -> bool:
 
 
 def chunk_slices(count: int, chunk_size: int) -> list[slice]:
-    """Consecutive slices covering ``range(count)``, each at most ``chunk_size`` long."""
-    if chunk_size < 1:
-        raise InvalidInputError(f"chunk_size must be >= 1; got {chunk_size}")
+    """Consecutive slices covering ``range(count)``, each at most ``chunk_size`` long.
+
+    Raises
+    ------
+    InvalidInputError
+        If ``chunk_size`` is not a whole number >= 1 (an int, not a bool).
+    """
+    if not (isinstance(chunk_size, int | np.integer) and not isinstance(chunk_size, bool)
+            and chunk_size >= 1):
+        raise InvalidInputError(f"chunk_size must be a whole number >= 1; got {chunk_size!r}")
+    chunk_size = int(chunk_size)
     return [slice(start, min(start + chunk_size, count)) for start in range(0, count, chunk_size)]
 
 

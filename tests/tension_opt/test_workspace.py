@@ -342,6 +342,9 @@ def test_grid_and_sample_input_checks():
     for wrenches in ("abc", [0.0, 0.0, 1j], [[0.0, 0.0, 0.0], [0.0, 0.0]]):
         with pytest.raises(to.InvalidInputError, match="wrenches"):
             ws.wrench_feasible_workspace(robot, robot.default_home()[None], wrenches=wrenches)
+    for size in (2.5, "a", 0, True):
+        with pytest.raises(to.InvalidInputError, match="chunk_size must be a whole number"):
+            ws.wrench_feasible_workspace(robot, robot.default_home()[None], chunk_size=size)
 
 
 def test_vertical_slice_is_drawn_in_y_and_z(thesis):
