@@ -6,6 +6,8 @@ Each check returns the value as a float array or raises
 
 from __future__ import annotations
 
+import operator
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -16,6 +18,20 @@ def check_positive(name: str, value: float) -> None:
     """Raise the package's error unless ``value`` is a positive finite number."""
     if not is_number(value) or not np.isfinite(value) or value <= 0:
         raise InvalidInputError(f"{name} must be a positive finite number, got {value!r}")
+
+
+def whole_positive(name: str, value: object) -> int:
+    """``value`` as a whole number >= 1 (an integer, not a bool), or the package's error
+    naming ``name``."""
+    try:
+        if isinstance(value, bool | np.bool_):
+            raise TypeError(name)
+        number = operator.index(value)  # type: ignore[arg-type]
+    except TypeError:
+        raise InvalidInputError(f"{name} must be a whole number >= 1, got {value!r}") from None
+    if number < 1:
+        raise InvalidInputError(f"{name} must be a whole number >= 1, got {number}")
+    return number
 
 
 def is_number(value: object) -> bool:

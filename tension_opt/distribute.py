@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import operator
 import time
 from dataclasses import replace
 from typing import Any
@@ -19,7 +18,7 @@ from tension_opt.backends.registry import (
 )
 from tension_opt.backends.settings import check_options
 from tension_opt.certificate import accuracy_target
-from tension_opt.checks import as_finite, as_float_array
+from tension_opt.checks import as_finite, as_float_array, whole_positive
 from tension_opt.chunked import (
     CERTIFIED_TASK,
     Joined,
@@ -117,7 +116,7 @@ def distribute(
     if not isinstance(robot, CableRobot):
         raise InvalidInputError(f"robot must be a CableRobot, got {type(robot).__name__}")
     check_options(options)
-    size = CHUNK_SIZE if chunk_size is None else _whole_positive("chunk_size", chunk_size)
+    size = CHUNK_SIZE if chunk_size is None else whole_positive("chunk_size", chunk_size)
     problem = as_problem(objective)
     p = robot.as_poses(poses)
     prev = None if previous is None else as_float_array("previous", previous)
@@ -220,19 +219,6 @@ def _distribute_chunks(robot: CableRobot, p: NDArray, problem: TensionProblem,
     in_order(slices[1:], lambda sl: solve(sl, None)[0], workers,
              lambda sl, sol: joined.add(sol, sl))
     return joined.solution(problem)
-
-
-def _whole_positive(name: str, value: object) -> int:
-    """``value`` as a whole number >= 1, or the package's error naming ``name``."""
-    try:
-        if isinstance(value, bool | np.bool_):
-            raise TypeError(name)
-        number = operator.index(value)  # type: ignore[arg-type]
-    except TypeError:
-        raise InvalidInputError(f"{name} must be a whole number >= 1, got {value!r}") from None
-    if number < 1:
-        raise InvalidInputError(f"{name} must be a whole number >= 1, got {number}")
-    return number
 
 
 def _solve(backend: Backend, form: StandardForm, options: dict[str, Any],

@@ -33,6 +33,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from tension_opt.checks import whole_positive
 from tension_opt.errors import BackendNotAvailableError, InvalidInputError
 
 __all__ = [
@@ -272,10 +273,7 @@ def chunk_slices(count: int, chunk_size: int) -> list[slice]:
     InvalidInputError
         If ``chunk_size`` is not a whole number >= 1 (an int, not a bool).
     """
-    if not (isinstance(chunk_size, int | np.integer) and not isinstance(chunk_size, bool)
-            and chunk_size >= 1):
-        raise InvalidInputError(f"chunk_size must be a whole number >= 1; got {chunk_size!r}")
-    chunk_size = int(chunk_size)
+    chunk_size = whole_positive("chunk_size", chunk_size)
     return [slice(start, min(start + chunk_size, count)) for start in range(0, count, chunk_size)]
 
 
