@@ -40,7 +40,7 @@ import tension_opt as to
 from catenary.realtime import PARALLEL_FROM, solve_forces_compiled, solve_length_compiled
 from tension_opt import presets
 from tension_opt.backends.closed_form import ClosedFormBackend
-from tension_opt.distribute import chunk_threads
+from tension_opt.distribution.entry import chunk_threads
 from tension_opt.kernels.launch import PARALLEL_MIN
 
 __all__ = ["main"]
@@ -203,7 +203,7 @@ def catenary_rows() -> None:
 @contextlib.contextmanager
 def _chunk_threads(threads: int) -> Iterator[None]:
     """``distribute`` with its chunks on ``threads`` threads (default: numba's count)."""
-    module = importlib.import_module("tension_opt.distribute")
+    module = importlib.import_module("tension_opt.distribution.entry")
     saved = module.chunk_threads
     module.chunk_threads = lambda: threads
     try:

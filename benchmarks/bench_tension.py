@@ -28,8 +28,8 @@ import numpy as np
 import tension_opt as to
 from benchmarks.scenarios import POND_HIGH, POND_LOW
 from tension_opt.backends import get_backend
-from tension_opt.backends.dense import dense_batch
-from tension_opt.sampling import random_feasible_poses
+from tension_opt.certify.scaling import scaled_batch
+from tension_opt.workspace.sampling import random_feasible_poses
 
 # (what was timed, number of poses or "", result)
 Row = tuple[str, int | str, str]
@@ -74,7 +74,7 @@ def daqp_rows(robot: to.CableRobot, poses: np.ndarray, repeat: int) -> list[Row]
     rows: list[Row] = []
     for objective in ("min_sum", "min_norm"):
         form = to.TensionProblem(objective).standard_form(robot, poses)
-        batch = dense_batch(form)
+        batch = scaled_batch(form)
         k, n = batch.k, batch.Aeq.shape[1]
         H = [np.diag(p) for p in batch.P]
         upper = np.concatenate([np.minimum(batch.ub, 1e30), batch.beq], axis=1)

@@ -8,7 +8,7 @@ each pose labelled ``optimal`` with the exact optimum (the closed form, else HiG
 the LPs and Clarabel for the QPs at high accuracy, themselves certified at 1e-10).
 
 The objective excess of a pose is measured as its certificate's duality gap is: on the
-scaled problem (:mod:`tension_opt.scaled`), ``(f(T) - f(T*))`` over the objective's
+scaled problem (:mod:`tension_opt.certify.scaling`), ``(f(T) - f(T*))`` over the objective's
 size, relative to ``max(1, |f*|)`` there. A pose labelled optimal whose excess is above
 the target is a wrong "optimal". The table gives, per backend, the share of poses
 labelled optimal (of those the reference solves), the worst excess among them and the
@@ -39,8 +39,8 @@ import tension_opt as to
 from benchmarks.metrics import objective_excess
 from benchmarks.random_robots import random_robot_set
 from benchmarks.scenarios import COGIRO_HIGH, COGIRO_LOW, POND_HIGH, POND_LOW
-from tension_opt.certificate import accuracy_target
-from tension_opt.sampling import random_feasible_poses
+from tension_opt.tolerances import accuracy_target
+from tension_opt.workspace.sampling import random_feasible_poses
 
 __all__ = ["OBJECTIVES", "TestSet", "compare", "main", "problem_for", "reference", "summary",
            "test_sets"]

@@ -46,7 +46,7 @@ from benchmarks import harness, report, studies
 from benchmarks.scenarios import PROBLEMS, SCENARIOS
 from benchmarks.study_points import ROBOT_OVERRIDES, parameter_names
 from tension_opt.errors import BackendNotAvailableError
-from tension_opt.executors import DASK_ADDRESS_VARIABLE, get_executor
+from tension_opt.workspace.executors import DASK_ADDRESS_VARIABLE, get_executor
 
 __all__ = ["EXECUTOR_HELP", "MAX_PROCESSES", "MAX_TIME_LIMIT", "build_parser", "main"]
 

@@ -22,7 +22,7 @@ from benchmarks import store
 from benchmarks.plan import Cell, Setting
 from benchmarks.runner import TIME_LIMIT, CellResult, References, base_row, run_cell, short_message
 from benchmarks.scenarios import PROBLEMS, SCENARIOS
-from tension_opt.executors import DaskExecutor, Executor, get_executor
+from tension_opt.workspace.executors import DaskExecutor, Executor, get_executor
 
 __all__ = [
     "CHUNK_CELLS",
@@ -173,7 +173,7 @@ def executor_machines(executor: Executor) -> set[str]:
 
 @contextmanager
 def open_executor(executor: str | Executor | Any) -> Iterator[Executor]:
-    """The executor of a spec (see :func:`tension_opt.executors.get_executor`).
+    """The executor of a spec (see :func:`tension_opt.workspace.executors.get_executor`).
 
     One named by a string is closed on exit; one passed in (an executor or a Dask
     client) is left open.

@@ -84,7 +84,7 @@ from benchmarks.store import (
     machine_label,
     utc_now,
 )
-from tension_opt.executors import Executor
+from tension_opt.workspace.executors import Executor
 
 __all__ = [
     "ALL_SETTINGS",
@@ -169,7 +169,7 @@ def run(
         survives a crashing solver). False runs them in this process. Ignored with an
         executor.
     executor : str, Executor or dask.distributed.Client, optional
-        Where the cells run (see :func:`tension_opt.executors.get_executor`):
+        Where the cells run (see :func:`tension_opt.workspace.executors.get_executor`):
         ``"inprocess"``, ``"processes[:N]"``, ``"dask[:ADDRESS]"``, an executor or a
         Dask client. The cells go in chunks of at most ``chunk_size`` cells of one
         scenario; the rows of a chunk are stored in one transaction as it comes back,

@@ -116,7 +116,7 @@ def load_compiled_kernels() -> None:
 
     import catenary
     import tension_opt as to
-    from tension_opt.distribute import CHUNK_SIZE
+    from tension_opt.distribution.entry import CHUNK_SIZE
 
     available = set(to.available_backends())
     for robot in (to.presets.algae_harvester(), to.presets.cogiro()):
@@ -126,7 +126,7 @@ def load_compiled_kernels() -> None:
                                                             else 2]:
             to.distribute(robot, home, objective, "closed_form")
             to.Distributor(robot, objective)(home)
-        # A batch of more than one chunk: the certified pass of tension_opt.fused.
+        # A batch of more than one chunk: the certified pass of tension_opt.distribution.certified.
         many = np.repeat(home[None], CHUNK_SIZE + 1, axis=0)
         to.distribute(robot, many, "min_sum", "closed_form")
         # A smoothed sequence's compiled loops (one compilation serves every robot).

@@ -17,8 +17,8 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt import CableRobot
-from tension_opt.problems import StandardForm
-from tension_opt.scaled import scaled_batch
+from tension_opt.certify.scaling import scaled_batch
+from tension_opt.problem.form import StandardForm
 
 #: Shift of the shifted geometric mean, in the unit of the values (qpbenchmark's choice).
 DEFAULT_SHIFT = 10.0
@@ -193,7 +193,7 @@ def relative_shifted_geometric_means(
 def objective_excess(form: StandardForm, tensions: ArrayLike, exact: ArrayLike) -> NDArray:
     """Objective excess of ``tensions`` over the optimum ``exact`` (both (N, m), N).
 
-    Measured as a certificate's duality gap is (:mod:`tension_opt.certificate`): on the
+    Measured as a certificate's duality gap is (:mod:`tension_opt.certify.certificate`): on the
     scaled problem (objective over its size), relative to ``max(1, |f*|)`` there; so an
     answer certified at a target has an excess of about the target at most.
 

@@ -7,7 +7,7 @@ out as a regular polygon (whose symmetric poses have ties of the min-sum LP). Ea
 robot's poses mix
 
 - poses drawn uniformly in a box and kept where tensions exist
-  (:func:`tension_opt.sampling.random_feasible_poses`);
+  (:func:`tension_opt.workspace.sampling.random_feasible_poses`);
 - **boundary poses**: a feasible and an infeasible draw bisected to within ``2^-steps``
   of the edge of the wrench-feasible workspace (with bounds tightened by
   :data:`EDGE_MARGIN` of the weight, so that they stay feasible at any solver's
@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tension_opt import CableRobot, InvalidInputError
-from tension_opt.sampling import feasible_mask, random_feasible_poses
+from tension_opt.workspace.sampling import feasible_mask, random_feasible_poses
 
 __all__ = [
     "EDGE_MARGIN",

@@ -337,7 +337,7 @@ def _settings_lines() -> list[str]:
         "primal residual, dual residual and duality gap of the scaled problem (tensions "
         "over a reference tension, equilibrium rows over their norms, objective of order "
         "one) all within the accuracy target (default 1e-7, high 1e-10), from the solver's "
-        "own multipliers where it gives them (`tension_opt.certificate`).",
+        "own multipliers where it gives them (`tension_opt.certify.certificate`).",
         "- Certified summary (qpbenchmark style): time ratio and certified cost count a "
         "cell that certifies fewer poses than the best backend of its instance as a "
         "failure (at the slowest time); `certified us` is a cell's time over its certified "

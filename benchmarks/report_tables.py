@@ -1,7 +1,7 @@
 """The report's tables of certified results, its provenance lines and its plot styles.
 
 Success is certified success: a pose counts when its certificate (primal residual, dual
-residual and duality gap of the scaled problem, :mod:`tension_opt.certificate`) meets
+residual and duality gap of the scaled problem, :mod:`tension_opt.certify.certificate`) meets
 the cell's accuracy target. The tables follow qpbenchmark: per solver and setting, the
 success rate, the time ratio as a shifted geometric mean over the cells (a cell that
 certifies fewer poses than the best backend of the same instance counts as a failure,

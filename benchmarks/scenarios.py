@@ -5,9 +5,9 @@ trajectory (smoothness and sequential problems apply) or an unordered set. A
 :class:`ProblemSpec` is a named tension-distribution problem, built for a robot (the
 centred problem needs finite bounds, which the study's robot does not have) and solved
 over poses by :func:`tension_opt.distribute` or, for joint smoothing,
-``tension_opt.trajectory.smooth_jointly``.
+``tension_opt.dynamics.trajectory.smooth_jointly``.
 
-Random sets are seeded draws of :func:`tension_opt.sampling.random_feasible_poses`
+Random sets are seeded draws of :func:`tension_opt.workspace.sampling.random_feasible_poses`
 (kept where the exact ``closed_form`` backend finds feasible tensions), so every
 scenario is the same on every machine. Besides the study's robot and CoGiRo, seeded
 random suspended robots (:mod:`benchmarks.random_robots`: 3 DOF with 6 and 7 cables, one
@@ -31,7 +31,7 @@ import tension_opt
 from benchmarks.random_robots import random_robot, random_robot_poses
 from tension_opt import CableRobot, TensionProblem, TensionSolution, presets
 from tension_opt.backends import Backend
-from tension_opt.sampling import feasible_mask, random_feasible_poses
+from tension_opt.workspace.sampling import feasible_mask, random_feasible_poses
 
 _SNAPSHOT_FILE = Path(__file__).resolve().parents[1] / "tests" / "data" / "thesis_snapshots.json"
 # The study's Table 4 poses (m); used when the data file is not beside the package.
@@ -149,7 +149,7 @@ def random_poses(low: tuple[float, ...], high: tuple[float, ...], count: int,
                  seed: int) -> Callable[[CableRobot], NDArray]:
     """Pose maker of a random scenario: ``count`` wrench-feasible poses in a box.
 
-    The poses are :func:`tension_opt.sampling.random_feasible_poses` of the robot
+    The poses are :func:`tension_opt.workspace.sampling.random_feasible_poses` of the robot
     (exact ``closed_form`` check, rounds of ``2 * count`` draws), shape (count, n).
     """
     def poses(robot: CableRobot) -> NDArray:
@@ -269,9 +269,10 @@ class ProblemSpec:
         """
         if self.joint:
             try:
-                from tension_opt.trajectory import smooth_jointly  # type: ignore[import-not-found]
+                from tension_opt.dynamics.trajectory import smooth_jointly  # type: ignore[import-not-found]
             except ImportError as exc:
-                raise NotAvailableError("tension_opt.trajectory.smooth_jointly is missing") from exc
+                raise NotAvailableError(
+                    "tension_opt.dynamics.trajectory.smooth_jointly is missing") from exc
             name = backend if isinstance(backend, str) else backend.name
             return smooth_jointly(robot, poses, objective="min_sum", backend=name,
                                   **self.options, **options)

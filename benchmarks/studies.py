@@ -3,7 +3,7 @@
 The reference study (summarised in ``thesis.md``) swept the cable diameter, the cable
 density, the end-effector mass, the pond area (at a fixed aspect ratio), the pond
 aspect ratio (at a fixed area) and the cable material of the algae-harvesting robot
-:func:`tension_opt.presets.algae_harvester`, at the nominal pose (0, 0, 0) and at
+:func:`tension_opt.robot.presets.algae_harvester`, at the nominal pose (0, 0, 0) and at
 (8, -5, 2), and looked at how the sag changes the cable lengths. :func:`sweep` redoes
 any of these (or sweeps any other override of the preset) and returns one row per
 (sweep point, pose, cable) with
@@ -17,7 +17,7 @@ any of these (or sweeps any other override of the preset) and returns one row pe
 
 Every sweep point is a different robot; the poses of a point are solved together
 (vectorised). The points are split into chunks and run through an executor of
-:mod:`tension_opt.executors` (in this process by default, or a process pool, or a
+:mod:`tension_opt.workspace.executors` (in this process by default, or a process pool, or a
 Dask cluster); the table is the same whichever runs it. A pose that is infeasible or
 whose catenary fails stays in the table with its status and NaN numbers; a sweep never
 stops at one bad point.
@@ -64,7 +64,7 @@ from benchmarks.study_points import (
 from catenary.materials import CableMaterial
 from tension_opt import CableRobot, distribute, presets
 from tension_opt.errors import InvalidInputError
-from tension_opt.executors import Executor, chunk_slices, run_chunks
+from tension_opt.workspace.executors import Executor, chunk_slices, run_chunks
 
 __all__ = [
     "COLUMNS",
@@ -381,7 +381,7 @@ def sweep(
     chunk_size, progress : int, bool
         Sweep points per chunk (>= 1); show a progress bar over the chunks.
     **robot_overrides
-        Fixed overrides of :func:`tension_opt.presets.algae_harvester` (SI units),
+        Fixed overrides of :func:`tension_opt.robot.presets.algae_harvester` (SI units),
         e.g. ``mass=300`` or ``t_max=20000``; not the swept parameter.
 
     Returns

@@ -2,7 +2,7 @@
 
 :data:`STUDY_PARAMETERS` names the reference study's sweeps (cable diameter and
 density, end-effector mass, pond area and aspect ratio, cable material) with their
-default ranges; any other override of :func:`tension_opt.presets.algae_harvester`
+default ranges; any other override of :func:`tension_opt.robot.presets.algae_harvester`
 (:data:`ROBOT_OVERRIDES`) can be swept too. :func:`sweep_points` turns a parameter and
 its values into validated :class:`SweepPoint` objects, each holding the preset
 overrides that build its robot (:func:`study_robot`). Units are SI (m, kg, N, Pa).
@@ -51,7 +51,7 @@ ROBOT_OVERRIDES: tuple[str, ...] = (
     "g",
     "EA",
 )
-"""Keyword overrides of :func:`tension_opt.presets.algae_harvester` (SI units)."""
+"""Keyword overrides of :func:`tension_opt.robot.presets.algae_harvester` (SI units)."""
 
 NOMINAL_POND_LENGTH = 80.9
 """Pond extent along x of the reference robot (m)."""
@@ -77,7 +77,7 @@ class StudyParameter:
     defaults : tuple
         Values swept when none are given (the study's ranges).
     override : str or None
-        The :func:`~tension_opt.presets.algae_harvester` keyword the value sets, or None
+        The :func:`~tension_opt.robot.presets.algae_harvester` keyword the value sets, or None
         for derived parameters (pond area, aspect ratio, material).
     """
 
@@ -144,7 +144,7 @@ class SweepPoint:
     value : float or str
         The value as stored in the table (a material name for ``"material"``).
     overrides : dict
-        Keywords of :func:`tension_opt.presets.algae_harvester` (SI units).
+        Keywords of :func:`tension_opt.robot.presets.algae_harvester` (SI units).
     material : str
         Catalogue name of the cable material, ``""`` when none.
     breaking_load : float

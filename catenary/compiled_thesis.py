@@ -29,8 +29,8 @@ from tension_opt.errors import TensionOptError
 from tension_opt.kernels.closed_form import solve_one
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, kind_code, rotation
 from tension_opt.kernels.launch import entry_point
-from tension_opt.problems import TensionProblem, as_problem
-from tension_opt.solution import Status
+from tension_opt.problem.form import TensionProblem, as_problem
+from tension_opt.status import Status
 
 from .errors import CatenaryError
 from .geometry import cable_data

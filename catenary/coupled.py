@@ -34,9 +34,9 @@ from numpy.typing import NDArray
 
 from tension_opt import CableRobot, TensionProblem
 from tension_opt.backends import Backend
-from tension_opt.objectives import get_objective
-from tension_opt.problems import StandardForm
-from tension_opt.solution import Status, status_array
+from tension_opt.problem.form import StandardForm
+from tension_opt.problem.objectives import get_objective
+from tension_opt.status import Status, status_array
 
 from .errors import InvalidCableError
 from .geometry import (

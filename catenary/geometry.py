@@ -14,7 +14,7 @@ share lives here: the planes of a batch of poses (:func:`cable_planes`, built on
 :meth:`tension_opt.CableRobot.cable_geometry`), the platform forces and their wrench,
 taut catenaries through both ends and how their platform force turns with the tension,
 the extreme tensions along a cable, the cable data, and the outcomes of the sag model
-that :class:`tension_opt.solution.Status` does not name.
+that :class:`tension_opt.status.Status` does not name.
 """
 
 from __future__ import annotations
@@ -119,7 +119,7 @@ def check_robot(robot: object) -> None:
     :class:`tension_opt.CableRobot`."""
     if not isinstance(robot, CableRobot):
         raise InvalidCableError(
-            f"robot must be a tension_opt.CableRobot (e.g. tension_opt.presets."
+            f"robot must be a tension_opt.CableRobot (e.g. tension_opt.robot.presets."
             f"algae_harvester()); got {type(robot).__name__}")
 
 

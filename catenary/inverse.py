@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 import pandas as pd
@@ -39,8 +39,9 @@ from numpy.typing import ArrayLike, NDArray
 import tension_opt
 from tension_opt import CableRobot, TensionProblem
 from tension_opt.backends import Backend, get_backend
-from tension_opt.problems import Objective, as_problem
-from tension_opt.solution import Status, TensionSolution, status_array
+from tension_opt.distribution.solution import TensionSolution
+from tension_opt.problem.form import Objective, as_problem
+from tension_opt.status import Status, status_array
 
 from .compiled_thesis import CompiledThesis, thesis_solver
 from .coupled import CatenarySolution, CoupledSolver
@@ -388,7 +389,8 @@ def _coupled_start(robot: CableRobot, poses: FloatArray, straight: TensionSoluti
         found = (m_status == Status.CONVERGED) & (margin >= -slack)
         start[idx[found]] = T_m[found]
         unsettled[idx[m_status != Status.CONVERGED]] = True
-    given = np.isfinite(start).all(axis=1)
+    # A row reduction of a 2-D mask: an array (the stubs also allow a scalar).
+    given = cast(NDArray[np.bool_], np.isfinite(start).all(axis=1))
     return np.where(given[:, None], start, tensions), attempt | given, unsettled
 
 

@@ -3,7 +3,7 @@
 The **coupled capacity margin** (N) is the largest ``s`` for which platform-end tensions
 exist whose catenaries balance the load with every cable's lowest tension
 ``>= t_min + s`` and highest ``<= t_max - s``: the straight-line margin of
-:mod:`tension_opt.margin` with the straight cables replaced by catenaries (the
+:mod:`tension_opt.workspace.margin` with the straight cables replaced by catenaries (the
 ``"coupled"`` model of :func:`catenary.inverse_kinematics`). :class:`CoupledMargin`
 finds it by sequential linear programming on the platform-end tensions ``t``, on the
 equilibrium manifold:
@@ -13,7 +13,7 @@ equilibrium manifold:
 2. linearise the catenary end forces in ``t`` (as the coupled inverse kinematics
    does) and the lowest and highest tension of each cable (forward differences), and
    solve the max-min LP in the null space exactly
-   (:func:`tension_opt.margin.margin_solve`), keeping every ``t_i`` 0.1 % above the
+   (:func:`tension_opt.workspace.margin.margin_solve`), keeping every ``t_i`` 0.1 % above the
    smallest tension any catenary of its span can carry (:func:`min_end_tension`);
 3. line search along that step: each trial is balanced again and accepted when the
    true margin (evaluated on the balanced catenaries) does not drop.
@@ -38,8 +38,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt import CableRobot
 from tension_opt.backends import Backend
-from tension_opt.margin import margin_solve, robot_bounds
-from tension_opt.solution import Status, status_array
+from tension_opt.status import Status, status_array
+from tension_opt.workspace.margin import margin_solve, robot_bounds
 
 from .geometry import (
     cable_data,

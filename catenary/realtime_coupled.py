@@ -37,11 +37,11 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt import CableRobot
-from tension_opt.certificate import accuracy_target
 from tension_opt.kernels import closed_form as cf
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, rotation
-from tension_opt.problems import TensionProblem, as_problem
-from tension_opt.solution import STATUS_DTYPE, Status
+from tension_opt.problem.form import TensionProblem, as_problem
+from tension_opt.status import STATUS_DTYPE, Status
+from tension_opt.tolerances import accuracy_target
 
 from .errors import InvalidCableError
 from .geometry import cable_data
@@ -464,6 +464,7 @@ class CoupledIK:
         self._work = work_floats(m, n)
         self._no_wrench = np.zeros(n)
         objective_ = self.problem.objective
+        assert not isinstance(objective_, str)  # TensionProblem resolves a name to its Objective
         self._params = np.array([self.w, 0.0 if math.isinf(self.EA) else 1.0 / self.EA,
                                  self.tol, float(max_iter), float(objective_.bounded),
                                  float(objective_.name == "centered")])
@@ -478,12 +479,14 @@ class CoupledIK:
     def _compiled(self) -> bool:
         """Whether the kernel solves this problem as the reference would."""
         robot, problem = self.robot, self.problem
+        objective = problem.objective
+        assert not isinstance(objective, str)  # TensionProblem resolves a name to its Objective
         return (self.w > 0.0 and robot.kind in self.KINDS
                 and isinstance(self.backend, str) and self.backend in ("auto", "closed_form")
                 and not set(self.options) - {"accuracy"} and robot.m - robot.dof in (1, 2)
-                and problem.objective.name in ("min_sum", "min_norm", "pinv", "centered")
+                and objective.name in ("min_sum", "min_norm", "pinv", "centered")
                 and not any(np.ndim(v) > 1 for v in (problem.t_min, problem.t_max,
-                                                     problem.reference)))
+                                                     problem.reference) if v is not None))
 
     def _pack(self) -> NDArray:
         """The constant data of the kernels
@@ -529,7 +532,9 @@ class CoupledIK:
         T, lam, geo, cab, forces, work = bufs
         if start is not None:
             T[:], lam[:] = start
-        return solve_pose(self._data, self._params, p, w, T, lam, start is not None, geo,
+        data = self._data
+        assert data is not None  # called only where the kernel serves the problem
+        return solve_pose(data, self._params, p, w, T, lam, start is not None, geo,
                           cab, forces, work)
 
     def _vector(self, name: str, value: ArrayLike) -> NDArray:

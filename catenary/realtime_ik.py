@@ -17,7 +17,7 @@ from typing import Any
 from numpy.typing import ArrayLike
 
 import tension_opt
-from tension_opt.problems import TensionProblem
+from tension_opt.problem.form import TensionProblem
 
 from .compiled_thesis import CompiledThesis
 from .compiled_thesis import thesis_pose as thesis_pose

@@ -29,7 +29,7 @@ from scipy.spatial.transform import Rotation
 
 from tension_opt import CableRobot
 from tension_opt.robot import CableProperties
-from tension_opt.solution import Status
+from tension_opt.status import Status
 
 from .errors import InvalidCableError
 from .forward import forward_kinematics

@@ -50,8 +50,8 @@ from numpy.typing import ArrayLike, NDArray
 import tension_opt
 from tension_opt import CableRobot, TensionProblem
 from tension_opt.backends import Backend
-from tension_opt.problems import Objective
-from tension_opt.solution import Status, status_array
+from tension_opt.problem.form import Objective
+from tension_opt.status import Status, status_array
 
 from .elastic import flexibility, stiffness
 from .errors import InvalidCableError

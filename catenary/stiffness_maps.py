@@ -4,7 +4,7 @@
 frequency of the platform (:func:`catenary.natural_frequencies`) and its linear
 deflection under a given load (:func:`catenary.deflection`), both from one stiffness
 per pose (:func:`catenary.robot_stiffness.stiffness_analysis`), in chunks of poses over
-an executor (:func:`tension_opt.executors.run_chunks`; the result does not depend on
+an executor (:func:`tension_opt.workspace.executors.run_chunks`; the result does not depend on
 it). :func:`plot_stiffness_map` draws a slice of a grid result as a heat map.
 """
 
@@ -18,8 +18,8 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt import CableRobot
-from tension_opt.executors import Executor, chunk_slices, merge_chunks, run_chunks
 from tension_opt.workspace import Grid
+from tension_opt.workspace.executors import Executor, chunk_slices, merge_chunks, run_chunks
 
 from .errors import InvalidCableError
 from .response import deflection_from, mass_matrix, modes_from

@@ -32,8 +32,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt import CableRobot
 from tension_opt.dynamics import PathSpline, TimingResult, required_wrench, time_optimal
-from tension_opt.problems import as_problem
-from tension_opt.solution import Status
+from tension_opt.problem.form import as_problem
+from tension_opt.status import Status
 
 from .geometry import (
     CablePlanes,

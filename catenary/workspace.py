@@ -42,9 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt import CableRobot
 from tension_opt.backends import Backend
-from tension_opt.executors import Executor, chunk_slices, merge_chunks, run_chunks
-from tension_opt.margin import pose_margins
-from tension_opt.solution import Status, status_array
+from tension_opt.status import Status, status_array
 from tension_opt.workspace import (
     FEAS_TOL,
     Grid,
@@ -52,6 +50,8 @@ from tension_opt.workspace import (
     on_drawing_point,
     prepare,
 )
+from tension_opt.workspace.executors import Executor, chunk_slices, merge_chunks, run_chunks
+from tension_opt.workspace.margin import pose_margins
 
 from .geometry import cable_data
 from .inverse import inverse_kinematics

@@ -5,12 +5,14 @@ norm, pseudo-inverse, min-max, centred, smoothed), solved by exact closed forms,
 cvxpy, qpsolvers or scipy/HiGHS, over batches of poses.
 """
 
+import sys
 from pathlib import Path
 
-from tension_opt import caspr, compiled_cache, dynamics, presets, workspace
+from tension_opt import compiled_cache, dynamics, workspace
 from tension_opt.backends import available_backends, get_backend
-from tension_opt.caspr import load_caspr
-from tension_opt.distribute import distribute
+from tension_opt.distribution.distributor import Distributor, RealtimeResult
+from tension_opt.distribution.entry import distribute
+from tension_opt.distribution.solution import TensionSolution
 from tension_opt.errors import (
     BackendNotAvailableError,
     InvalidInputError,
@@ -19,14 +21,19 @@ from tension_opt.errors import (
     TensionOptError,
     UnsupportedProblemError,
 )
-from tension_opt.margin import capacity_margin
-from tension_opt.problems import Objective, TensionProblem
-from tension_opt.realtime import Distributor, RealtimeResult
-from tension_opt.robot import CableProperties, CableRobot
-from tension_opt.solution import Status, TensionSolution
+from tension_opt.problem.form import Objective, TensionProblem
+from tension_opt.robot import CableProperties, CableRobot, caspr, presets
+from tension_opt.robot.caspr import load_caspr
+from tension_opt.status import Status
 from tension_opt.workspace import WorkspaceResult, workspace_grid, wrench_feasible_workspace
+from tension_opt.workspace.margin import capacity_margin
 
 __version__ = "0.1.0"
+
+# The robot's presets and CASPR import live in tension_opt.robot; these public names
+# also import as modules of their own (`import tension_opt.presets`).
+sys.modules.setdefault("tension_opt.presets", presets)
+sys.modules.setdefault("tension_opt.caspr", caspr)
 
 __all__ = [
     "BackendNotAvailableError",

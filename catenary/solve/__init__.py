@@ -35,7 +35,7 @@ argument checks live in :mod:`catenary.solve.common`.
 Status values
 -------------
 Numpy unicode arrays of these strings (values of
-``tension_opt.solution.Status``):
+``tension_opt.status.Status``):
 
 ``"converged"``      solution found and certified (for :func:`solve_length`:
                      the taut branch).

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -45,7 +45,7 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-# The status strings are values of ``tension_opt.solution.Status``; they are
+# The status strings are values of ``tension_opt.status.Status``; they are
 # spelled out here so that the single-cable solvers need no robot package.
 CONVERGED = "converged"
 SLACK = "slack"
@@ -245,8 +245,11 @@ def prepare(
 PIECE = 65536
 
 
-def in_pieces(solve: Callable[..., tuple[NDArray, ...]], arrays: list[FloatArray]
-              ) -> tuple[NDArray, ...]:
+#: The tuple of per-cable result arrays a piece's solver returns (:func:`in_pieces`).
+_Arrays = TypeVar("_Arrays", bound=tuple[NDArray[Any], ...])
+
+
+def in_pieces(solve: Callable[..., _Arrays], arrays: list[FloatArray]) -> _Arrays:
     """``solve(*arrays)`` of flat per-cable arrays (n,), run on pieces of at most
     :data:`PIECE` cables and written into result arrays of the whole batch, so that the
     numpy path's work arrays (some tens per cable) take bounded memory whatever the
@@ -254,7 +257,7 @@ def in_pieces(solve: Callable[..., tuple[NDArray, ...]], arrays: list[FloatArray
     n = arrays[0].size
     if n <= PIECE:
         return solve(*arrays)
-    whole: list[NDArray] = []
+    whole: list[NDArray[Any]] = []
     for start in range(0, n, PIECE):
         piece = slice(start, start + PIECE)
         part = solve(*(a[piece] for a in arrays))
@@ -262,7 +265,8 @@ def in_pieces(solve: Callable[..., tuple[NDArray, ...]], arrays: list[FloatArray
             whole = [np.empty(n, dtype=values.dtype) for values in part]
         for into, values in zip(whole, part, strict=True):
             into[piece] = values
-    return tuple(whole)
+    # The arrays of a piece's result, in its order and with its dtypes, for every cable.
+    return cast(_Arrays, tuple(whole))
 
 
 # ----------------------------------------------------------------------------

@@ -1,6 +1,6 @@
 """The backend interface: :class:`Backend` and the :class:`RawResult` it returns.
 
-A backend solves batches of :class:`~tension_opt.problems.StandardForm`. Generic
+A backend solves batches of :class:`~tension_opt.problem.form.StandardForm`. Generic
 solvers implement one stage (:meth:`Backend.solve_stage`); :meth:`Backend.solve` adds
 the two-stage tie-break of non-unique LP optima (:mod:`tension_opt.backends.tiebreak`).
 
@@ -10,7 +10,7 @@ Contract of every backend (the rest of the package relies on it):
   in progress on itself (each backend's docstring says how: per-call solver objects,
   per-thread caches or a lock).
 - **Honest statuses.** :meth:`Backend.solve` labels a pose ``OPTIMAL`` only with
-  finite tensions whose certificate (:mod:`tension_opt.certificate`: primal residual,
+  finite tensions whose certificate (:mod:`tension_opt.certify.certificate`: primal residual,
   dual residual and duality gap of the scaled problem, from the solver's multipliers
   where it gives them) meets the accuracy target of the call; a solver's "optimal"
   that misses it is ``INACCURATE``. The multipliers and the target go to
@@ -39,11 +39,12 @@ from numpy.typing import NDArray
 from tension_opt.backends.feasibility import settle_failures
 from tension_opt.backends.settings import unreachable
 from tension_opt.backends.tiebreak import face_min_norm, lp_optimum_is_unique, optimal_face
-from tension_opt.certificate import Multipliers, accuracy_target, certify
+from tension_opt.certify.certificate import Multipliers, certify
+from tension_opt.certify.scaling import scaled_batch
 from tension_opt.errors import SolverError
-from tension_opt.problems import StandardForm
-from tension_opt.scaled import scaled_batch
-from tension_opt.solution import STATUS_DTYPE, Status, status_array
+from tension_opt.problem.form import StandardForm
+from tension_opt.status import STATUS_DTYPE, Status, status_array
+from tension_opt.tolerances import accuracy_target
 
 #: Per-pose solver messages kept in ``extras["errors"]`` (the first ones of a batch).
 MAX_ERRORS = 10
@@ -54,7 +55,7 @@ class RawResult:
     """What a backend returns for a batch: tensions (N, m) and per-pose diagnostics.
 
     ``multipliers`` are the solver's, of the scaled problem
-    (:func:`tension_opt.scaled.scaled_batch`), NaN rows where it gave none.
+    (:func:`tension_opt.certify.scaling.scaled_batch`), NaN rows where it gave none.
     """
 
     tensions: NDArray
@@ -82,7 +83,7 @@ class SequenceRun:
 
 
 class Backend:
-    """A way of solving :class:`~tension_opt.problems.StandardForm` batches.
+    """A way of solving :class:`~tension_opt.problem.form.StandardForm` batches.
 
     Subclasses implement :meth:`unsupported` and :meth:`solve`; generic solvers
     implement :meth:`solve_stage` and inherit :meth:`solve`, which adds the

@@ -6,7 +6,7 @@ interval; in two dimensions the feasible set is a polygon and the optimum lies a
 minimum, on an edge line or at a vertex. Both are enumerated for all poses at once.
 For the common 3 x 4 case (a point-mass robot with four cables) the null vector comes
 from the generalised cross product, so no matrix factorisation is needed. The
-null-space pieces shared with the capacity margin live in :mod:`tension_opt.nullspace`.
+null-space pieces shared with the capacity margin live in :mod:`tension_opt.problem.affine`.
 """
 
 from __future__ import annotations
@@ -20,11 +20,12 @@ from numpy.typing import NDArray
 
 from tension_opt.backends import lowdim
 from tension_opt.backends.base import Backend, RawResult, SequenceRun
-from tension_opt.certificate import accuracy_target
+from tension_opt.backends.lowdim import min_of_max_lines
 from tension_opt.errors import BackendNotAvailableError
-from tension_opt.nullspace import RANK_TOL, min_of_max_lines, pinv_and_null, solution_set
-from tension_opt.problems import StandardForm
-from tension_opt.solution import FEASIBILITY_TOL, STATUS_DTYPE, Status, status_array
+from tension_opt.problem.affine import RANK_TOL, pinv_and_null, solution_set
+from tension_opt.problem.form import StandardForm
+from tension_opt.status import STATUS_DTYPE, Status, status_array
+from tension_opt.tolerances import FEASIBILITY_TOL, accuracy_target
 
 #: Poses per block of the four-cable path (about 20 arrays of this length are live).
 _BLOCK = 8192

@@ -1,6 +1,6 @@
 """Backend ``cvxpy[:SOLVER]``: a cvxpy problem compiled once with Parameters, re-solved per pose.
 
-The problem is the scaled one every generic backend solves (:mod:`tension_opt.scaled`:
+The problem is the scaled one every generic backend solves (:mod:`tension_opt.certify.scaling`:
 tensions over a reference tension, equilibrium rows over their norms, objective of
 order one, a min-max term as an explicit epigraph variable) and is DPP-compliant, so
 cvxpy canonicalises it once per structure (sizes, objective kind, pattern of finite
@@ -27,11 +27,12 @@ from tension_opt.backends.base import (
     quiet_solvers,
 )
 from tension_opt.backends.settings import solver_options
-from tension_opt.certificate import DEFAULT_TARGET, Multipliers, accuracy_target, certify
+from tension_opt.certify.certificate import Multipliers, certify
+from tension_opt.certify.scaling import ScaledBatch, scaled_batch
 from tension_opt.errors import BackendNotAvailableError
-from tension_opt.problems import StandardForm
-from tension_opt.scaled import ScaledBatch, scaled_batch
-from tension_opt.solution import Status
+from tension_opt.problem.form import StandardForm
+from tension_opt.status import Status
+from tension_opt.tolerances import DEFAULT_TARGET, accuracy_target
 
 try:
     import cvxpy as cp

@@ -23,10 +23,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from tension_opt.solution import Status
+from tension_opt.status import Status
 
 if TYPE_CHECKING:
-    from tension_opt.problems import StandardForm
+    from tension_opt.problem.form import StandardForm
 
 __all__ = ["settle_failures"]
 
@@ -54,7 +54,7 @@ def settle_failures(form: StandardForm, raw: Any, max_errors: int = 10) -> None:
         return
     from scipy.optimize import linprog
 
-    from tension_opt.scaled import scaled_batch
+    from tension_opt.certify.scaling import scaled_batch
 
     batch = scaled_batch(form.subset(np.array(poses)))
     rows = batch.G.shape[1] > 0

@@ -6,8 +6,7 @@ optimal face of an LP. Bounds ``lb <= T <= ub`` become half-planes in ``z``; the
 optimum of a convex diagonal quadratic or of a linear cost is found by enumerating
 its few possible locations (free minimum, minimum on each bounding line, vertices)
 for all poses at once. There is no iteration and no tolerance beyond rounding. The
-pieces shared with the capacity margin (bound lines, the minimum of a maximum of
-lines) live in :mod:`tension_opt.nullspace`.
+capacity margin uses the bound lines and the minimum of a maximum of lines too.
 """
 
 from __future__ import annotations
@@ -15,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from tension_opt.nullspace import bound_lines, min_of_max_lines
+__all__ = ["FEAS_TOL", "FLAT_TOL", "bound_lines", "infeasibility_1d", "interval", "lp_2d",
+           "min_of_max_lines", "qp_2d", "widen"]
 
 # Relative tolerance on feasibility tests and on flat (tied) directions.
 FEAS_TOL = 1e-9
@@ -199,3 +199,71 @@ def lp_2d(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray, c: NDArray, scale: 
                       scale[w])
         z[w] = zw
     return z, feasible, unique, np.ones(N, dtype=bool)
+
+
+def bound_lines(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray
+                ) -> tuple[NDArray, NDArray, NDArray]:
+    """Bounds ``lb <= T0 + Z z <= ub`` as half-spaces ``a_l . z <= beta_l`` in ``z``.
+
+    Parameters
+    ----------
+    T0, lb, ub : ndarray, shape (N, m)
+        ``lb`` / ``ub`` may be infinite (no half-space).
+    Z : ndarray, shape (N, m, d)
+
+    Returns
+    -------
+    normals : ndarray, shape (N, 2m, d)
+        ``-Z`` rows (lower bounds), then ``Z`` rows (upper bounds).
+    beta : ndarray, shape (N, 2m)
+        ``T0 - lb``, then ``ub - T0``; 0 where the bound is absent.
+    present : ndarray of bool, shape (N, 2m)
+        Which half-spaces exist (finite bound).
+    """
+    normals = np.concatenate([-Z, Z], axis=1)
+    with np.errstate(invalid="ignore"):
+        beta = np.concatenate([T0 - lb, ub - T0], axis=1)
+    present = np.isfinite(beta)
+    return normals, np.where(present, beta, 0.0), present
+
+
+def min_of_max_lines(slopes: NDArray, intercepts: NDArray, lo: NDArray, hi: NDArray
+                     ) -> tuple[NDArray, NDArray]:
+    """Minimise ``f(t) = max_j (slopes_j t + intercepts_j)`` over ``t`` in ``[lo, hi]``.
+
+    ``f`` is convex; its free minimum is where the highest crossing of a rising and a
+    falling line lies (in one dimension two lines decide the minimum), and the minimum
+    over the interval is that point clipped to it.
+
+    Parameters
+    ----------
+    slopes, intercepts : ndarray, shape (N, J)
+        Lines with intercept ``-inf`` are ignored; lines of slope 0 are constant.
+    lo, hi : ndarray, shape (N,)
+        May be infinite; ``t`` is then infinite where ``f`` keeps falling, and the
+        value is that of the highest constant line (``-inf`` without one).
+
+    Returns
+    -------
+    t, value : ndarray, shape (N,)
+    """
+    rising = (slopes > 0) & np.isfinite(intercepts)
+    falling = (slopes < 0) & np.isfinite(intercepts)
+    a_i, a_j = slopes[:, :, None], slopes[:, None, :]
+    b_i, b_j = intercepts[:, :, None], intercepts[:, None, :]
+    pair = rising[:, :, None] & falling[:, None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_cross = (b_j - b_i) / (a_i - a_j)  # meaningful where pair
+        v_cross = np.where(pair, a_i * t_cross + b_i, -np.inf)
+    best = np.argmax(v_cross.reshape(len(lo), -1), axis=1)
+    rows = np.arange(len(lo))
+    has_pair = rising.any(axis=1) & falling.any(axis=1)
+    t_free = np.where(has_pair, t_cross.reshape(len(lo), -1)[rows, best],
+                      np.where(rising.any(axis=1), -np.inf,
+                               np.where(falling.any(axis=1), np.inf, 0.0)))
+    t = np.clip(t_free, lo, hi)
+    with np.errstate(invalid="ignore"):
+        # A constant line keeps its value at an infinite t (0 * inf would be NaN).
+        lines = np.where(slopes == 0, intercepts, slopes * t[:, None] + intercepts)
+        value = np.where(np.isfinite(intercepts), lines, -np.inf).max(axis=1)
+    return t, value

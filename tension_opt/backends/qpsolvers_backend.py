@@ -23,12 +23,13 @@ from tension_opt.backends.base import (
     pose_loop_result,
     quiet_solvers,
 )
-from tension_opt.backends.dense import DenseBatch, dense_batch
 from tension_opt.backends.settings import solver_options
-from tension_opt.certificate import Multipliers, accuracy_target
+from tension_opt.certify.certificate import Multipliers
+from tension_opt.certify.scaling import ScaledBatch, scaled_batch
 from tension_opt.errors import BackendNotAvailableError
-from tension_opt.problems import StandardForm
-from tension_opt.solution import FEASIBILITY_TOL, Status
+from tension_opt.problem.form import StandardForm
+from tension_opt.status import Status
+from tension_opt.tolerances import FEASIBILITY_TOL, accuracy_target
 
 try:
     import qpsolvers
@@ -152,7 +153,7 @@ class QpsolversBackend(Backend):
 
     def solve_stage(self, form: StandardForm, **options: Any) -> RawResult:
         t0 = time.perf_counter()
-        batch = dense_batch(form)
+        batch = scaled_batch(form)
         settings = solver_options(self._solver, options.get("accuracy"),
                                   options.get("time_limit"), options.get("solver_options"))
         warm = bool(options.get("warm_start", False))
@@ -286,7 +287,7 @@ class QpsolversBackend(Backend):
             has_last = True
         return N
 
-    def _solve_generic(self, batch: DenseBatch, settings: dict[str, Any], warm: bool,
+    def _solve_generic(self, batch: ScaledBatch, settings: dict[str, Any], warm: bool,
                        setup: float) -> RawResult:
         N, k = batch.N, batch.k
         x_all, status, iters = pose_loop_result(N, k)
@@ -335,7 +336,7 @@ class QpsolversBackend(Backend):
         return RawResult(batch.tensions(x_all), status, iters if has_iters else None, setup,
                          elapsed, extras=extras, multipliers=duals)
 
-    def _solve_daqp(self, batch: DenseBatch, settings: dict[str, Any], warm: bool,
+    def _solve_daqp(self, batch: ScaledBatch, settings: dict[str, Any], warm: bool,
                     setup: float) -> RawResult:
         t0 = time.perf_counter()
         N, k = batch.N, batch.k
@@ -410,7 +411,7 @@ class QpsolversBackend(Backend):
         return flags
 
 
-def _keep_duals(duals: Multipliers, i: int, sol: Any, batch: DenseBatch, bounded: bool
+def _keep_duals(duals: Multipliers, i: int, sol: Any, batch: ScaledBatch, bounded: bool
                 ) -> None:
     """Store a qpsolvers Solution's multipliers of pose ``i`` (its convention,
     ``P x + q + G'z + A'y + z_box = 0``, is the certificate's); a pose whose solver

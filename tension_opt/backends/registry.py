@@ -19,7 +19,7 @@ from types import ModuleType
 
 from tension_opt.backends.base import Backend
 from tension_opt.errors import BackendNotAvailableError, UnsupportedProblemError
-from tension_opt.problems import StandardForm
+from tension_opt.problem.form import StandardForm
 
 #: Backend families: registry prefix -> module.
 FAMILIES: dict[str, str] = {

@@ -14,12 +14,12 @@ import scipy
 from scipy.optimize import linprog
 
 from tension_opt.backends.base import Backend, RawResult, note_error, pose_loop_result
-from tension_opt.backends.dense import dense_batch
 from tension_opt.backends.settings import solver_options
-from tension_opt.certificate import Multipliers
+from tension_opt.certify.certificate import Multipliers
+from tension_opt.certify.scaling import scaled_batch
 from tension_opt.errors import BackendNotAvailableError
-from tension_opt.problems import StandardForm
-from tension_opt.solution import Status
+from tension_opt.problem.form import StandardForm
+from tension_opt.status import Status
 
 _LINPROG_STATUS = {0: Status.OPTIMAL, 1: Status.MAX_ITER, 2: Status.INFEASIBLE,
                    3: Status.UNBOUNDED, 4: Status.INACCURATE}
@@ -49,7 +49,7 @@ class ScipyHighsBackend(Backend):
 
     def solve_stage(self, form: StandardForm, **options: Any) -> RawResult:
         t0 = time.perf_counter()
-        batch = dense_batch(form)
+        batch = scaled_batch(form)
         settings = solver_options("highs", options.get("accuracy"), options.get("time_limit"),
                                   options.get("solver_options"), interface="scipy")
         N, k = batch.N, batch.k

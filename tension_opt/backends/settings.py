@@ -1,7 +1,7 @@
 """One table of solver settings: an accuracy target and a time limit, in each solver's words.
 
 ``accuracy`` names a target on the three measures of a solution's certificate, all
-taken on the scaled problem (:mod:`tension_opt.certificate`): primal residual (equilibrium
+taken on the scaled problem (:mod:`tension_opt.certify.certificate`): primal residual (equilibrium
 and bounds), dual residual (stationarity) and duality gap. ``"default"`` is 1e-7,
 ``"high"`` 1e-10, and a number between 1e-14 and 1e-2 is taken as the target itself.
 :data:`SETTINGS` says, per solver, which of its options bound those measures and at
@@ -27,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from tension_opt.certificate import ACCURACY_TARGETS, DEFAULT_TARGET, accuracy_target
 from tension_opt.errors import InvalidInputError
+from tension_opt.tolerances import ACCURACY_TARGETS, DEFAULT_TARGET, accuracy_target
 
 __all__ = ["ACCURACIES", "CVXPY_DROPS", "CVXPY_NAMES", "DEFAULT_TARGET", "OPTIONS",
            "SETTINGS", "SolverSettings", "accuracy_target", "check_accuracy",

@@ -9,7 +9,7 @@ by non-negative least squares on a larger one (:func:`least_distance_face`), so 
 every backend breaks a tie to the same tensions, rank-deficient robots included.
 
 Both the test and the face use the multipliers of the solution's certificate
-(:mod:`tension_opt.certificate`) where they are given: a bound whose multiplier is
+(:mod:`tension_opt.certify.certificate`) where they are given: a bound whose multiplier is
 clearly nonzero (:data:`MULTIPLIER_TOL`) holds on the whole optimal face, so the face
 keeps that cable at its bound and the test allows it no move; the other active bounds
 are judged from the tensions as before.
@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from tension_opt.backends import lowdim
 from tension_opt.errors import InvalidInputError
-from tension_opt.problems import StandardForm
+from tension_opt.problem.form import StandardForm
 
 #: Relative tolerance (of the typical tension) for "at a bound" in the uniqueness test.
 ACTIVE_TOL = 1e-6

@@ -21,14 +21,14 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import make_interp_spline
 
 from tension_opt.checks import as_finite, check_positive
-from tension_opt.distribute import distribute
+from tension_opt.distribution.entry import distribute
+from tension_opt.distribution.solution import TensionSolution
 from tension_opt.dynamics.rotation import twist_rates
+from tension_opt.dynamics.trajectory import smooth_jointly
 from tension_opt.dynamics.wrench import inertia_wrench, required_wrench
 from tension_opt.errors import InvalidInputError
-from tension_opt.problems import Objective, TensionProblem, as_problem
+from tension_opt.problem.form import Objective, TensionProblem, as_problem
 from tension_opt.robot import CableRobot
-from tension_opt.solution import TensionSolution
-from tension_opt.trajectory import smooth_jointly
 
 __all__ = ["MAX_SAMPLES", "TimedTrajectory", "check_times", "distribute_trajectory"]
 
@@ -246,7 +246,7 @@ def distribute_trajectory(
     The cables must supply :func:`~tension_opt.dynamics.required_wrench` at every
     sample; the d'Alembert wrench (:func:`~tension_opt.dynamics.wrench.inertia_wrench`)
     goes to :func:`tension_opt.distribute` (or
-    :func:`tension_opt.trajectory.smooth_jointly`) as the external wrench, so every
+    :func:`tension_opt.dynamics.trajectory.smooth_jointly`) as the external wrench, so every
     objective, backend and smoothing option of those applies. At rest the tensions are
     the static ones, exactly.
 
@@ -261,7 +261,7 @@ def distribute_trajectory(
         As in :func:`tension_opt.distribute`; for ``mode="joint"`` a sparse QP backend
         (``"auto"``: ``"qpsolvers:clarabel"``).
     mode : {"pointwise", "penalty", "rate_limit", "joint"}
-        As in :func:`tension_opt.trajectory.solve_trajectory`: each sample alone (or
+        As in :func:`tension_opt.dynamics.trajectory.solve_trajectory`: each sample alone (or
         as ``objective`` says), ``smoothing * ||T - T_prev||^2``, ``|T - T_prev| <=
         rate_limit`` (N), or one QP over the whole trajectory with weight ``smoothing``.
     wrench : array_like, shape (n,) or (N, n), optional

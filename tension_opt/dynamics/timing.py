@@ -42,17 +42,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.backends.registry import choose_backend
 from tension_opt.checks import as_float_array, is_number
-from tension_opt.distribute import solution_of
+from tension_opt.distribution.solution import solution_of
 from tension_opt.dynamics.path import PathSpline, PathStages, path_stages
 from tension_opt.dynamics.stage_lp import StageLP
 from tension_opt.dynamics.timed import TimedTrajectory
 from tension_opt.dynamics.timing_convex import convex_timing
 from tension_opt.errors import InvalidInputError
-from tension_opt.margin import margin_solve
-from tension_opt.nullspace import typical_tension
-from tension_opt.problems import Objective, TensionProblem, as_problem
+from tension_opt.problem.affine import typical_tension
+from tension_opt.problem.form import Objective, TensionProblem, as_problem
 from tension_opt.robot import CableRobot
 from tension_opt.status import Status, status_array
+from tension_opt.workspace.margin import margin_solve
 
 __all__ = ["STOP_TOL", "TimingResult", "motion_limits", "time_optimal"]
 

@@ -25,12 +25,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.checks import as_finite
-from tension_opt.distribute import distribute
+from tension_opt.distribution.entry import distribute
 from tension_opt.dynamics.wrench import inertia_wrench
 from tension_opt.errors import InvalidInputError
-from tension_opt.margin import pose_margins
 from tension_opt.robot import CableRobot
-from tension_opt.solution import Status, status_array
+from tension_opt.status import Status, status_array
 from tension_opt.workspace import (
     FEAS_TOL,
     Grid,
@@ -39,6 +38,7 @@ from tension_opt.workspace import (
     prepare,
     wrench_feasible_workspace,
 )
+from tension_opt.workspace.margin import pose_margins
 
 __all__ = ["acceleration_vertices", "dynamic_workspace"]
 

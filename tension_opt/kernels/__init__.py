@@ -1,11 +1,16 @@
 """Compiled (numba) kernels of the real-time path, one pose at a time or in parallel.
 
+Each kernel module is named after the module it twins and imports only the ground
+(:mod:`tension_opt.errors`, :mod:`tension_opt.status`, :mod:`tension_opt.checks`,
+:mod:`tension_opt.kinds`, :mod:`tension_opt.tolerances`) and other kernels: arrays in,
+arrays out.
+
 The numpy implementations (:mod:`tension_opt.robot`, :mod:`tension_opt.backends.closed_form`,
-:mod:`tension_opt.scaled`, :mod:`tension_opt.certificate`) are the reference these
+:mod:`tension_opt.certify.scaling`, :mod:`tension_opt.certify.certificate`) are the reference these
 kernels are tested against. numba compiles each kernel on its first call and caches the
 machine code on disk (``cache=True``), so importing this package compiles nothing;
-:mod:`tension_opt.realtime` imports it only when a
-:class:`~tension_opt.realtime.Distributor` is built.
+:mod:`tension_opt.distribution.distributor` imports it only when a
+:class:`~tension_opt.distribution.distributor.Distributor` is built.
 
 The one-pose kernels allocate nothing: their temporaries live in a work array the caller
 owns (one per thread; :func:`~tension_opt.kernels.closed_form.work_size`), each kernel
@@ -28,7 +33,7 @@ itself, outside the inlined steps, and takes its arrays as arguments.
 
 - :mod:`tension_opt.kernels.geometry`: structure matrix and required wrench of every
   robot kind;
-- :mod:`tension_opt.kernels.nullspace`, :mod:`tension_opt.kernels.lowdim`: the null
+- :mod:`tension_opt.kernels.affine`, :mod:`tension_opt.kernels.lowdim`: the null
   space and the minimisation over it;
 - :mod:`tension_opt.kernels.closed_form`: the exact closed form for null spaces of
   dimension 1 and 2 (every objective it covers, the tie-break, the feasibility check
@@ -37,16 +42,17 @@ itself, outside the inlined steps, and takes its arrays as arguments.
   the certificate of DAQP's answer;
 - :mod:`tension_opt.kernels.daqp_native`: DAQP's C solver called from compiled code
   (one pose, or the ``qpsolvers:daqp`` backend's batch), checked against ``daqp.solve``;
-- :mod:`tension_opt.kernels.scaling`, :mod:`tension_opt.kernels.measures`,
-  :mod:`tension_opt.kernels.multipliers`: the scaling of every problem handed to a
-  generic backend, the three measures of its certificate and the cheap dual solve
-  (numpy references: ``StandardForm.scaling``,
-  :func:`tension_opt.certificate.measures_reference`,
-  :func:`tension_opt.certificate.estimate_multipliers_reference`);
+- :mod:`tension_opt.kernels.scaling`, :mod:`tension_opt.kernels.certificate`: the
+  scaling of every problem handed to a generic backend, the three measures of its
+  certificate and the cheap dual solve (numpy references:
+  :func:`tension_opt.certify.scaling.scaling_reference`,
+  :func:`tension_opt.certify.certificate.measures_reference`,
+  :func:`tension_opt.certify.certificate.estimate_multipliers_reference`);
 - :mod:`tension_opt.kernels.certified`: the closed form of independent poses with its
   diagnostics and certificate, pose by pose, from the one-pose functions of the
-  modules above (the certified path of large batches, :mod:`tension_opt.fused`);
-- :mod:`tension_opt.kernels.lanes`, :mod:`tension_opt.kernels.lane_steps`: the same
+  modules above (the certified path of large batches, :mod:`tension_opt.distribution.certified`);
+- :mod:`tension_opt.kernels.certified_lanes`, :mod:`tension_opt.kernels.certified_lane_steps`: the
+same
   for a point robot on four cables, poses side by side in the vector unit, bit for bit
   the pose-by-pose loop;
 - :mod:`tension_opt.kernels.launch`: when a batch kernel runs in parallel (large

@@ -1,24 +1,25 @@
 """The certified closed form of independent poses, compiled: per pose, geometry, the
-exact closed form, and everything :meth:`tension_opt.solution.TensionSolution.from_form`
+exact closed form, and everything
+:meth:`tension_opt.distribution.solution.TensionSolution.from_form`
 measures of it, written straight into the arrays of a whole batch.
 
 The reference is the path of the plain :func:`tension_opt.distribute` on the compiled
 closed form: :meth:`tension_opt.robot.CableRobot.equilibrium`, the problem's
-:class:`~tension_opt.problems.StandardForm`,
+:class:`~tension_opt.problem.form.StandardForm`,
 :meth:`tension_opt.backends.closed_form.ClosedFormBackend.solve` and
-:meth:`TensionSolution.from_form <tension_opt.solution.TensionSolution.from_form>` (the
+:meth:`TensionSolution.from_form <tension_opt.distribution.solution.TensionSolution.from_form>` (the
 objective, equilibrium residual, bound violation, the certificate on
-:func:`tension_opt.scaled.scaled_batch` with multipliers from the cheap dual solve, and
+:func:`tension_opt.certify.scaling.scaled_batch` with multipliers from the cheap dual solve, and
 the status judged by both). Each step is the one-pose function the batch kernels of
 that step run (:func:`~tension_opt.kernels.geometry.geometry_into`,
 :func:`~tension_opt.kernels.closed_form.form_pose` (its steps),
 :func:`~tension_opt.kernels.scaling.pose_scaled`,
-:func:`~tension_opt.kernels.multipliers.pose_estimate`,
-:func:`~tension_opt.kernels.measures.pose_measures`), so the answers agree to rounding.
+:func:`~tension_opt.kernels.certificate.pose_estimate`,
+:func:`~tension_opt.kernels.certificate.pose_measures`), so the answers agree to rounding.
 
 A pose the kernel does not settle gets a code for the caller to solve it by that path:
 :data:`CODE_FALLBACK` (a pose the closed-form kernel hands to the numpy path, or whose
-certificate needs the sign-constrained refit of :func:`tension_opt.certificate.certify`)
+certificate needs the sign-constrained refit of :func:`tension_opt.certify.certificate.certify`)
 or :data:`CODE_GEOMETRY` (a cable on its drawing point, lengths or wrench beyond the
 float range: the path raises the package's error for these).
 """
@@ -26,17 +27,16 @@ float range: the path raises the package's error for these).
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from tension_opt.certificate import RIDGE
+from tension_opt.kernels.certificate import pose_estimate, pose_measures
+from tension_opt.kernels.certified_lanes import REDO, lane_poses
 from tension_opt.kernels.closed_form import (
     CODE_FALLBACK,
     HEADER,
-    pack_problem,
     plain,
     point4,
     point4_distance,
@@ -45,57 +45,20 @@ from tension_opt.kernels.closed_form import (
     work_size,
 )
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
-from tension_opt.kernels.lanes import REDO, lane_poses
-from tension_opt.kernels.measures import pose_measures
-from tension_opt.kernels.multipliers import pose_estimate
 from tension_opt.kernels.scaling import pose_scaled, safe_norm_of
-from tension_opt.objectives import Centered, MinMax, MinNorm, MinSum, Pinv
-from tension_opt.problems import ROW_FLOOR, UB_SHARE
-from tension_opt.solution import FEASIBILITY_TOL
 from tension_opt.status import STATUS_TABLE
+from tension_opt.tolerances import FEASIBILITY_TOL, RIDGE, ROW_FLOOR, UB_SHARE
 
-__all__ = ["CODE_FALLBACK", "CODE_GEOMETRY", "STATUS_VALUES", "certified_poses",
-           "pack_certified", "problem_views"]
+__all__ = ["CODE_FALLBACK", "CODE_GEOMETRY", "DISTANCE", "LINEAR", "MAX", "STATUS_VALUES",
+           "certified_poses", "problem_views"]
 
 #: Code of a pose whose geometry the kernel flags (see the module docstring).
 CODE_GEOMETRY = 8
 #: Status values of the kernel's codes 0-3 (optimal, infeasible, unbounded, inaccurate).
 STATUS_VALUES = STATUS_TABLE[:4]
-#: How the objective is evaluated (:meth:`tension_opt.problems.TensionProblem.evaluate`):
+#: How the objective is evaluated (:meth:`tension_opt.problem.form.TensionProblem.evaluate`):
 #: ``sum_i w_i T_i``, ``max_i w_i T_i``, ``sum_i (T_i - r_i)^2 w_i``.
-_LINEAR, _MAX, _DISTANCE = 0, 1, 2
-
-
-def pack_certified(robot: Any, problem: Any, target: float) -> NDArray | None:
-    """:func:`~tension_opt.kernels.closed_form.pack_problem` of a robot and a problem
-    (no per-pose rows, no smoothing), followed by what the certificate needs: ``target,
-    objective code, vmax`` and the objective's weights ``w`` and target tensions ``r``
-    (m,) each. None for an objective other than the package's five."""
-    m = robot.m
-    w = problem.cable_weights(m)
-    r = np.zeros(m)
-    objective = problem.objective
-    if type(objective) is MinSum:
-        code = _LINEAR
-    elif type(objective) is MinMax:
-        code = _MAX
-    elif type(objective) is MinNorm:
-        code = _DISTANCE
-        if problem.reference is not None:
-            r = np.broadcast_to(np.asarray(problem.reference, dtype=float), (1, m))[0]
-    elif type(objective) is Centered:
-        code = _DISTANCE
-        lb, ub = problem.bounds(robot, 1)
-        r = 0.5 * (lb[0] + ub[0])
-    elif type(objective) is Pinv:
-        code, w = _DISTANCE, np.ones(m)
-    else:
-        return None
-    data = pack_problem(robot, problem, target)
-    vmax = 0.0
-    if code == _MAX:
-        vmax = float(np.abs(data[HEADER + 8 * m:HEADER + 9 * m]).max(initial=0.0)) or 1.0
-    return np.ascontiguousarray(np.concatenate([data, [target, code, vmax], w, r]))
+LINEAR, MAX, DISTANCE = 0, 1, 2
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -116,12 +79,12 @@ def _measured(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, T: NDArray, code
     if not math.isfinite(residual):  # squares beyond the float range: measured rescaled
         residual = safe_norm_of(work)
     violation = 0.0
-    value = -np.inf if code == _MAX else 0.0
+    value = -np.inf if code == MAX else 0.0
     for i in range(m):
         violation = max(violation, max(lb[i] - T[i], T[i] - ub[i]))
-        if code == _LINEAR:
+        if code == LINEAR:
             value += T[i] * w[i]
-        elif code == _MAX:
+        elif code == MAX:
             value = max(value, T[i] * w[i])
         else:
             d = T[i] - r[i]
@@ -202,7 +165,7 @@ def certified_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray
     The steps of each pose run in one pass (:func:`_poses`) on work arrays allocated
     once per call, so that nothing per pose leaves the caches but its results. A point
     robot on four cables without a min-max term runs them on blocks of poses side by
-    side (:func:`tension_opt.kernels.lanes.lane_poses`, the same answers to the last
+    side (:func:`tension_opt.kernels.certified_lanes.lane_poses`, the same answers to the last
     bit, about 5x faster), the poses it leaves pose by pose.
 
     Parameters
@@ -220,7 +183,7 @@ def certified_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray
         results are left unwritten).
     unique, objective, residual, violation, infeasibility, primal, dual, gap : ndarray
         Shape (N,), written: the fields of a
-        :class:`~tension_opt.solution.TensionSolution` (NaN where unknown).
+        :class:`~tension_opt.distribution.solution.TensionSolution` (NaN where unknown).
     y, mu, z : ndarray, shapes (N, n), (N, g), (N, k)
         The certificate's multipliers (in their cones), written.
     side_by_side : bool

@@ -5,7 +5,7 @@ each pose smoothed against the answer before); and over the poses of a standard 
 :func:`tension_opt.distribute`).
 
 The reference is :class:`tension_opt.backends.closed_form.ClosedFormBackend` with the
-status rule of :meth:`tension_opt.solution.TensionSolution.from_form`: a pose is
+status rule of :meth:`tension_opt.distribution.solution.TensionSolution.from_form`: a pose is
 optimal only with finite tensions whose equilibrium residual and bound violation are
 within ``max(FEASIBILITY_TOL, 10 * target)`` of the form's tolerance scale (the dual
 measures of the certificate hold by construction for an exact closed form).
@@ -20,6 +20,7 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
+from tension_opt.kernels.affine import null_space, null_space_work
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
 from tension_opt.kernels.lowdim import (
     FEAS_TOL,
@@ -33,15 +34,14 @@ from tension_opt.kernels.lowdim import (
     qp_2d,
     solve_1d,
 )
-from tension_opt.kernels.nullspace import null_space, null_space_work
-from tension_opt.solution import FEASIBILITY_TOL
+from tension_opt.tolerances import FEASIBILITY_TOL
 
 __all__ = ["CODE_BAD_INPUT", "CODE_FALLBACK", "CODE_STATUS", "HEADER", "HUGE", "form_pose",
            "form_terms", "judge", "pack", "pack_problem", "plain", "point4", "point4_distance",
            "pose_scales", "solve_batch", "solve_batch_serial", "solve_form", "solve_forms",
            "solve_forms_sequence", "solve_forms_serial", "solve_one", "solve_sequence", "work_size"]
 
-#: Status codes of the kernels and the :class:`~tension_opt.solution.Status` values
+#: Status codes of the kernels and the :class:`~tension_opt.status.Status` values
 #: they stand for; :data:`CODE_FALLBACK` asks for the numpy path (singular or badly
 #: conditioned structure matrix, zero-length cable).
 CODE_STATUS = ("optimal", "infeasible", "unbounded", "inaccurate", "solver_error")
@@ -108,7 +108,7 @@ def pack_problem(robot: Any, problem: Any, target: float) -> NDArray:
         A robot of a kind in :data:`tension_opt.kernels.geometry.KIND_CODES`.
     problem : tension_opt.TensionProblem
     target : float
-        Accuracy target (:func:`tension_opt.certificate.accuracy_target`).
+        Accuracy target (:func:`tension_opt.certify.certificate.accuracy_target`).
     """
     from tension_opt.kernels.geometry import kind_code
 
@@ -149,7 +149,7 @@ def form_terms(q0: NDArray, c0: NDArray, lb0: NDArray, ub0: NDArray, smoothing: 
 @njit(cache=True, error_model="numpy", inline="always")
 def pose_scales(A: NDArray, b: NDArray, lb: NDArray) -> tuple[float, float]:
     """``(typical tension, tolerance scale)`` of the pose
-    (:func:`~tension_opt.nullspace.typical_tension`, ``StandardForm.tolerance_scale``)."""
+    (:func:`~tension_opt.problem.affine.typical_tension`, ``StandardForm.tolerance_scale``)."""
     n, m = A.shape
     col = 0.0
     for j in range(m):

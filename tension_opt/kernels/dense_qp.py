@@ -1,13 +1,13 @@
 """The scaled dense QP of one pose for DAQP, and the judgement of DAQP's answer, compiled.
 
 The problem handed to DAQP is the one the ``qpsolvers:daqp`` backend builds
-(:func:`tension_opt.scaled.scaled_batch`: tensions over the pose's typical tension,
+(:func:`tension_opt.certify.scaling.scaled_batch`: tensions over the pose's typical tension,
 equilibrium rows over their norms, objective over its largest Hessian entry), laid out
 as DAQP takes it: ``m`` simple bounds, then ``n`` equality rows. The answer is judged
-as :meth:`tension_opt.solution.TensionSolution.from_form` judges it, with DAQP's own
+as :meth:`tension_opt.distribution.solution.TensionSolution.from_form` judges it, with DAQP's own
 multipliers: optimal only when the equilibrium residual and bound violation are within
 the feasibility tolerance and the certificate's primal residual, dual residual and
-duality gap are within the accuracy target (:mod:`tension_opt.certificate`). A pose
+duality gap are within the accuracy target (:mod:`tension_opt.certify.certificate`). A pose
 that misses any of these is left to the numpy path, whose certificate may estimate
 better multipliers, so that a status never claims more than the numpy path would.
 
@@ -41,7 +41,7 @@ from tension_opt.kernels.closed_form import (
 )
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
 from tension_opt.kernels.scaling import pose_scaling
-from tension_opt.problems import ROW_FLOOR, UB_SHARE
+from tension_opt.tolerances import ROW_FLOOR, UB_SHARE
 
 __all__ = ["BIG", "DaqpPose", "qp_build", "qp_judge", "qp_problem", "qp_size", "qp_verdict",
            "qp_views", "sequence_pose", "sequence_size", "sequence_verdict", "solve_pose",
@@ -76,7 +76,7 @@ def qp_problem(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
     tuple
         ``(code, scale)``: code 0 (ready), ``CODE_FALLBACK`` (a degenerate pose, an
         LP) or ``CODE_BAD_INPUT``; the reference tension (N), as
-        :meth:`~tension_opt.problems.StandardForm.scaling` gives it
+        :meth:`~tension_opt.problem.form.StandardForm.scaling` gives it
         (:func:`~tension_opt.kernels.scaling.pose_scaling`).
     """
     m, n = int(data[1]), int(data[2])

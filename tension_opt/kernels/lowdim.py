@@ -11,8 +11,6 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from tension_opt.kernels.nullspace import min_of_max_lines
-
 __all__ = ["FEAS_TOL", "FLAT_TOL", "infeasibility_1d", "interval", "lowdim_work", "lp_2d",
            "qp_2d", "solve_1d"]
 
@@ -157,7 +155,7 @@ def solve_1d(T0: NDArray, n: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: N
 @njit(cache=True, error_model="numpy")
 def _lines(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray, work: NDArray
            ) -> tuple[NDArray, NDArray, NDArray]:
-    """Bounds as half-planes ``a_l . z <= beta_l`` (:func:`tension_opt.nullspace.bound_lines`),
+    """Bounds as half-planes ``a_l . z <= beta_l`` (:func:`tension_opt.problem.affine.bound_lines`),
     and 1.0 where a line is present (a finite bound), in ``work`` (8 m floats)."""
     m = T0.size
     normals = work[:4 * m].reshape((2 * m, 2))
@@ -331,3 +329,50 @@ def _edge_min_norm(T0: NDArray, Z: NDArray, verts: NDArray, cost: NDArray, cut: 
         den += dt * dt
     s = clip(-num / den, 0.0, 1.0)
     return z0 + s * (b0 - z0), z1 + s * (b1 - z1)
+
+
+@njit(cache=True, error_model="numpy")
+def min_of_max_lines(slopes: NDArray, intercepts: NDArray, lo: float, hi: float
+                     ) -> tuple[float, float]:
+    """Minimise ``max_j (slopes_j t + intercepts_j)`` over ``t`` in ``[lo, hi]``:
+    ``(t, value)``; lines with intercept ``-inf`` are ignored (one pose of
+    :func:`tension_opt.problem.affine.min_of_max_lines`, same choices)."""
+    J = slopes.size
+    best_v = -np.inf
+    best_t = np.nan
+    has_pair = any_rising = any_falling = False
+    for i in range(J):
+        if not math.isfinite(intercepts[i]):
+            continue
+        if slopes[i] > 0:
+            any_rising = True
+        elif slopes[i] < 0:
+            any_falling = True
+    for i in range(J):
+        if not (slopes[i] > 0 and math.isfinite(intercepts[i])):
+            continue
+        for j in range(J):
+            if not (slopes[j] < 0 and math.isfinite(intercepts[j])):
+                continue
+            t_cross = (intercepts[j] - intercepts[i]) / (slopes[i] - slopes[j])
+            v = slopes[i] * t_cross + intercepts[i]
+            if not has_pair or v > best_v:
+                best_v, best_t = v, t_cross
+                has_pair = True
+    if has_pair:
+        t_free = best_t
+    elif any_rising:
+        t_free = -np.inf
+    elif any_falling:
+        t_free = np.inf
+    else:
+        t_free = 0.0
+    t = min(max(t_free, lo), hi)
+    value = -np.inf
+    for j in range(J):
+        if not math.isfinite(intercepts[j]):
+            continue
+        line = intercepts[j] if slopes[j] == 0 else slopes[j] * t + intercepts[j]
+        if line > value or math.isnan(line):
+            value = line
+    return t, value

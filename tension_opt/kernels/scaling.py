@@ -1,7 +1,7 @@
 """How each pose is nondimensionalised for the solvers, compiled.
 
-The reference is :meth:`tension_opt.problems.StandardForm.scaling` (see
-:mod:`tension_opt.problems` for the scaling itself): the reference tension of a pose,
+The reference is :meth:`tension_opt.problem.form.StandardForm.scaling` (see
+:mod:`tension_opt.problem.form` for the scaling itself): the reference tension of a pose,
 its equilibrium rows' factors, the size of its objective. In numpy it takes some
 thirty small array operations, longer than a small DAQP solve; this kernel does it in
 one pass per pose, with the same guards (norms measured without overflow, a finite
@@ -29,7 +29,7 @@ __all__ = ["batch_scaling", "pose_scaled", "pose_scaling", "safe_norm_of"]
 def safe_norm_of(x: NDArray) -> float:
     """Euclidean norm of a vector without overflow or underflow of the squares (the
     entries are divided by the largest magnitude first); inf or NaN for a non-finite
-    entry, as :func:`tension_opt.nullspace.safe_norm`."""
+    entry, as :func:`tension_opt.problem.affine.safe_norm`."""
     top = 0.0
     for v in x:
         a = abs(v)
@@ -51,7 +51,7 @@ def safe_norm_of(x: NDArray) -> float:
 def pose_scaling(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
                  vmax: float, ub_share: float, row_floor: float, rows: NDArray
                  ) -> tuple[float, float, bool]:
-    """Scaling of one pose, as :meth:`~tension_opt.problems.StandardForm.scaling`.
+    """Scaling of one pose, as :meth:`~tension_opt.problem.form.StandardForm.scaling`.
 
     Parameters
     ----------
@@ -62,7 +62,7 @@ def pose_scaling(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c
     vmax : float
         Largest min-max weight (0 without a min-max term).
     ub_share, row_floor : float
-        :data:`~tension_opt.problems.UB_SHARE`, :data:`~tension_opt.problems.ROW_FLOOR`.
+        :data:`~tension_opt.problem.form.UB_SHARE`, :data:`~tension_opt.problem.form.ROW_FLOOR`.
     rows : ndarray, shape (n,)
         Written: the factors of the equilibrium rows.
 
@@ -119,7 +119,7 @@ def pose_scaled(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c:
                 v: NDArray, vmax: float, ub_share: float, row_floor: float, rows: NDArray,
                 P: NDArray, cs: NDArray, Aeq: NDArray, beq: NDArray, G: NDArray, h: NDArray,
                 lbs: NDArray, ubs: NDArray, again: bool) -> float:
-    """The scaled, lifted problem of one pose, as :func:`tension_opt.scaled.scaled_batch`
+    """The scaled, lifted problem of one pose, as :func:`tension_opt.certify.scaling.scaled_batch`
     writes it (its numpy reference), from the pose's form (``A`` (n, m), ``b`` (n,),
     ``lb``, ``ub``, ``q``, ``c`` (m,)).
 

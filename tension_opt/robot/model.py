@@ -234,21 +234,23 @@ class CableRobot:
     def from_file(cls, path: str | PathLike[str]) -> CableRobot:
         """The robot described in a YAML (``.yaml``/``.yml``) or JSON (``.json``) file.
 
-        The format is that of :mod:`tension_opt.robot_files` (``docs/robot_files.md``).
+        The format is that of :mod:`tension_opt.robot.files` (``docs/robot_files.md``).
 
         Raises
         ------
         RobotFileError
             Naming each bad field, its line in the file and the fix.
         """
-        from tension_opt import robot_files  # pydantic and yaml load only when needed
+        from tension_opt.robot import (
+            files as robot_files,  # pydantic and yaml load only when needed
+        )
 
         return robot_files.read_robot_file(path, cls, CableProperties)
 
     def to_file(self, path: str | PathLike[str]) -> None:
         """Write the robot as YAML or JSON (by the suffix of ``path``); :meth:`from_file`
         reads it back bit for bit."""
-        from tension_opt import robot_files
+        from tension_opt.robot import files as robot_files
 
         robot_files.write_robot_file(path, self)
 

@@ -7,7 +7,7 @@ answer every pose gets its **capacity margin** (N)::
     margin = max s  such that  A T = b,  t_min + s <= T <= t_max - s      (one wrench)
 
 positive inside the workspace, zero on its boundary, negative outside (see
-:mod:`tension_opt.margin` for its infinite values and how it is computed). With
+:mod:`tension_opt.workspace.margin` for its infinite values and how it is computed). With
 several wrenches the margin is the smallest over them. A pose is reported feasible
 when ``margin >= -FEAS_TOL * scale``, ``scale`` being the pose's typical tension.
 
@@ -21,12 +21,11 @@ The package holds one job per module:
   result, do not depend on the executor);
 - :mod:`~tension_opt.workspace.plots`: :func:`plot_slice`, :func:`plot_workspace_3d`.
 
-The margin itself is :func:`tension_opt.margin.capacity_margin`, also importable from
+The margin itself is :func:`tension_opt.workspace.margin.capacity_margin`, also importable from
 here.
 """
 
-from tension_opt.margin import LP_CAP, capacity_margin, margin_lp, margin_solve
-from tension_opt.nullspace import CONSISTENCY_TOL, RANK_TOL
+from tension_opt.problem.affine import CONSISTENCY_TOL, RANK_TOL
 from tension_opt.workspace.compute import (
     CHUNK_SIZE,
     FEAS_TOL,
@@ -41,6 +40,7 @@ from tension_opt.workspace.grid import (
     sample_poses,
     workspace_grid,
 )
+from tension_opt.workspace.margin import LP_CAP, capacity_margin, margin_lp, margin_solve
 from tension_opt.workspace.plots import plot_slice, plot_workspace_3d
 from tension_opt.workspace.result import WorkspaceResult
 

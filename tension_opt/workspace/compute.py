@@ -2,14 +2,14 @@
 
 A pose is *wrench-feasible* when tensions within ``[t_min, t_max]`` hold the platform's
 weight plus every external wrench of a given set (each on its own). Every pose gets its
-capacity margin under each wrench (:mod:`tension_opt.margin`); the smallest decides.
+capacity margin under each wrench (:mod:`tension_opt.workspace.margin`); the smallest decides.
 A pose is reported feasible when ``margin >= -FEAS_TOL * scale``, ``scale`` being the
-pose's typical tension (:func:`tension_opt.nullspace.typical_tension`, as in the
+pose's typical tension (:func:`tension_opt.problem.affine.typical_tension`, as in the
 closed-form backend). Feasible poses also get their minimum-sum tensions under the
 critical wrench.
 
 Large batches are cut into chunks of poses run through
-:func:`tension_opt.executors.run_chunks` (in-process, a process pool or Dask); the
+:func:`tension_opt.workspace.executors.run_chunks` (in-process, a process pool or Dask); the
 chunks are the same whatever the executor, so the result is too.
 """
 
@@ -24,13 +24,13 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt.backends.base import Backend
 from tension_opt.backends.registry import get_backend
 from tension_opt.checks import as_float_array
-from tension_opt.distribute import distribute
+from tension_opt.distribution.entry import distribute
 from tension_opt.errors import InvalidInputError
-from tension_opt.executors import Executor, chunk_slices, merge_chunks, run_chunks
-from tension_opt.margin import pose_margins
 from tension_opt.robot import CableRobot
-from tension_opt.solution import Status, status_array
+from tension_opt.status import Status, status_array
+from tension_opt.workspace.executors import Executor, chunk_slices, merge_chunks, run_chunks
 from tension_opt.workspace.grid import Grid, check_bounds
+from tension_opt.workspace.margin import pose_margins
 from tension_opt.workspace.result import WorkspaceResult
 
 __all__ = [
@@ -209,7 +209,7 @@ def wrench_feasible_workspace(
         tensions come from :func:`tension_opt.distribute` with the same backend.
     executor : str, Executor or dask.distributed.Client, optional
         Where the chunks run: None (this process), ``"processes:N"``,
-        ``"dask:tcp://host:port"`` or a Dask client; see :mod:`tension_opt.executors`.
+        ``"dask:tcp://host:port"`` or a Dask client; see :mod:`tension_opt.workspace.executors`.
     chunk_size : int
         Poses per chunk. The chunks do not depend on the executor, so neither does
         the result.

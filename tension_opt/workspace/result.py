@@ -29,7 +29,8 @@ class WorkspaceResult:
         Every wrench of the set can be held with tensions within the bounds.
     margin : ndarray, shape (N,)
         Capacity margin (N): the smallest over the wrenches of the largest ``s`` with
-        tensions in ``[t_min + s, t_max - s]`` in equilibrium; see :mod:`tension_opt.margin`.
+        tensions in ``[t_min + s, t_max - s]`` in equilibrium; see
+        :mod:`tension_opt.workspace.margin`.
     tensions : ndarray, shape (N, m)
         Minimum-sum tensions (N) under the critical wrench (the one that sets the
         margin); NaN where infeasible.

@@ -14,7 +14,7 @@ from benchmarks import harness
 from benchmarks.cli import build_parser, main
 from benchmarks.scenarios import PROBLEMS, Scenario, pick_and_place
 from tension_opt import presets
-from tension_opt.executors import DaskExecutor
+from tension_opt.workspace.executors import DaskExecutor
 
 TINY = Scenario("tiny_path", "first six poses of the study's path (not registered: lambdas)",
                 presets.algae_harvester, lambda r: pick_and_place()[:6], trajectory=True)

@@ -94,7 +94,8 @@ def test_missing_solver_becomes_a_row(tmp_path: Path) -> None:
 
 def test_unsupported_and_missing_function(tmp_path: Path,
                                           monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setitem(sys.modules, "tension_opt.trajectory", None)  # as if not written yet
+    # As if not written yet:
+    monkeypatch.setitem(sys.modules, "tension_opt.dynamics.trajectory", None)
     cells = [harness.Cell(TINY, PROBLEMS["joint_smoothing"], "cvxpy:CLARABEL",
                           harness.Setting()),
              harness.Cell(SCENARIOS["cogiro_random"], PROBLEMS["min_max"], "closed_form",

@@ -9,7 +9,7 @@ import pytest
 from benchmarks import metrics
 from benchmarks.scenarios import pick_and_place, snapshot_poses
 from tension_opt import distribute, presets
-from tension_opt.problems import StandardForm
+from tension_opt.problem.form import StandardForm
 
 # Two cables over five poses: steps (+1, +2, -4, +1) and (0, +10, 0, -10).
 SERIES = np.array([[0.0, 5.0], [1.0, 5.0], [3.0, 15.0], [-1.0, 15.0], [0.0, 5.0]])

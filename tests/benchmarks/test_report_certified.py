@@ -29,7 +29,7 @@ from benchmarks.random_robots import (
 )
 from benchmarks.report_tables import backend_style, certified_summary
 from benchmarks.scenarios import PROBLEMS, SCENARIOS
-from tension_opt.sampling import feasible_mask
+from tension_opt.workspace.sampling import feasible_mask
 
 COMMITTED = Path(__file__).resolve().parents[2] / "benchmarks" / "results" / "results.csv"
 QP = "qpsolvers:daqp" if "qpsolvers:daqp" in to.available_backends() else "scipy:highs"

@@ -37,7 +37,7 @@ from hypothesis import strategies as st
 import catenary
 import tension_opt as to
 from catenary.geometry import cable_data, cable_planes
-from tension_opt.solution import Status
+from tension_opt.status import Status
 
 # Kernels compile before the watchdog times any call (see tests/conftest.py).
 pytestmark = pytest.mark.usefixtures("compiled_kernels")

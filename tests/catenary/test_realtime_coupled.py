@@ -22,7 +22,7 @@ import tension_opt as to
 from catenary.geometry import cable_planes, force_slope, taut_catenaries
 from catenary.realtime_coupled import CERT_TOL, CoupledIK, force_slope_one
 from tension_opt import presets
-from tension_opt.solution import Status
+from tension_opt.status import Status
 
 TOL = 1e-10  # the reference's default stopping tolerance
 ALGAE = presets.algae_harvester()

@@ -24,7 +24,7 @@ import tension_opt as to
 from catenary.geometry import cable_data, cable_planes, cable_wrench, platform_forces
 from catenary.robot_stiffness import assemble_stiffness, cross_matrix
 from tension_opt.robot import CableProperties
-from tension_opt.sampling import random_feasible_poses
+from tension_opt.workspace.sampling import random_feasible_poses
 
 matplotlib.use("Agg")
 

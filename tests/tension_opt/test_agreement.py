@@ -13,8 +13,8 @@ import pytest
 
 import tension_opt as to
 from tension_opt.backends.settings import SETTINGS
-from tension_opt.certificate import HIGH_TARGET
-from tension_opt.sampling import random_feasible_poses
+from tension_opt.tolerances import HIGH_TARGET
+from tension_opt.workspace.sampling import random_feasible_poses
 
 N_POSES = 1000
 REL_TOL = 1e-6

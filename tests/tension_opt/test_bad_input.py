@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import tension_opt as to
-from tension_opt.sampling import random_feasible_poses
-from tension_opt.trajectory import smooth_jointly
+from tension_opt.dynamics.trajectory import smooth_jointly
+from tension_opt.workspace.sampling import random_feasible_poses
 
 STUDY_POSE = [[-29.4, 10.2, 1.5]]
 

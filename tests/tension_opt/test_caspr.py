@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import tension_opt as to
-from tension_opt.caspr import cable_sets, load_caspr
-from tension_opt.robot_cli import main
+from tension_opt.cli import main
+from tension_opt.robot.caspr import cable_sets, load_caspr
 
 CASPR = Path(__file__).resolve().parents[1] / "data" / "caspr" / "SCDM"
 

@@ -20,17 +20,18 @@ from hypothesis import strategies as st
 import tension_opt as to
 from tension_opt.backends.base import probe_form
 from tension_opt.backends.closed_form import ClosedFormBackend
-from tension_opt.certificate import (
+from tension_opt.certify.certificate import (
     Multipliers,
-    accuracy_target,
     certify,
     certify_form,
     estimate_multipliers,
     measures,
 )
-from tension_opt.problems import StandardForm
-from tension_opt.scaled import scaled_batch
-from tension_opt.solution import Status, TensionSolution
+from tension_opt.certify.scaling import scaled_batch
+from tension_opt.distribution.solution import TensionSolution
+from tension_opt.problem.form import StandardForm
+from tension_opt.status import Status
+from tension_opt.tolerances import accuracy_target
 
 SNAPSHOTS = json.loads((Path(__file__).parents[1] / "data" / "thesis_snapshots.json")
                        .read_text())["snapshots"]

@@ -25,8 +25,8 @@ from tension_opt.backends.closed_form import ClosedFormBackend
 from tension_opt.backends.qpsolvers_backend import QpsolversBackend
 from tension_opt.kernels import closed_form as kernels
 from tension_opt.kernels import launch
-from tension_opt.problems import StandardForm
-from tension_opt.sampling import default_box, random_feasible_poses
+from tension_opt.problem.form import StandardForm
+from tension_opt.workspace.sampling import default_box, random_feasible_poses
 
 SETTINGS = settings(max_examples=30, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
@@ -367,7 +367,7 @@ def test_compiled_sequence_equals_pose_by_pose(robot_name: str, problem: to.Tens
     wrench[60, 0] = 1e160
     fast = to.distribute(robot, poses, problem, "closed_form", wrench=wrench,
                          previous=previous)
-    distribute_module = importlib.import_module("tension_opt.distribute")
+    distribute_module = importlib.import_module("tension_opt.distribution.entry")
     monkeypatch.setattr(distribute_module, "_compiled_sequence", lambda *args: None)
     slow = to.distribute(robot, poses, problem, "closed_form", wrench=wrench,
                          previous=previous)
@@ -437,7 +437,7 @@ def test_qp_sequence_equals_pose_by_pose(robot_name: str, problem: to.TensionPro
     monkeypatch.setattr(QpsolversBackend, "solve_sequence", counted)
     fast = to.distribute(robot, poses, problem, backend, wrench=wrench,
                          previous=previous, accuracy=accuracy)
-    distribute_module = importlib.import_module("tension_opt.distribute")
+    distribute_module = importlib.import_module("tension_opt.distribution.entry")
     monkeypatch.setattr(distribute_module, "_compiled_sequence", lambda *args: None)
     slow = to.distribute(robot, poses, problem, backend, wrench=wrench,
                          previous=previous, accuracy=accuracy)

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import tension_opt as to
-from tension_opt.certificate import (
+from tension_opt.certify.certificate import (
     Multipliers,
     certify,
     estimate_multipliers,
@@ -17,9 +17,9 @@ from tension_opt.certificate import (
     measures,
     measures_reference,
 )
-from tension_opt.problems import StandardForm, as_problem
-from tension_opt.sampling import random_feasible_poses
-from tension_opt.scaled import scaled_batch
+from tension_opt.certify.scaling import scaled_batch
+from tension_opt.problem.form import StandardForm, as_problem
+from tension_opt.workspace.sampling import random_feasible_poses
 
 
 def _assert_same_measures(batch, x, mult) -> None:

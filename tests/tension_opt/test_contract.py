@@ -31,8 +31,9 @@ from hypothesis import strategies as st
 import catenary
 import tension_opt as to
 from tension_opt.kinds import KINDS
-from tension_opt.objectives import OBJECTIVES
-from tension_opt.solution import FEASIBILITY_TOL, Status
+from tension_opt.problem.objectives import OBJECTIVES
+from tension_opt.status import Status
+from tension_opt.tolerances import FEASIBILITY_TOL
 
 # Kernels compile before the watchdog times any call (see tests/conftest.py).
 pytestmark = pytest.mark.usefixtures("compiled_kernels")
@@ -323,7 +324,7 @@ def test_robot_constructor_keeps_the_contract(data: st.DataObject) -> None:
 @contract_settings(300)
 @given(st.data())
 def test_smooth_jointly_keeps_the_contract(data: st.DataObject) -> None:
-    from tension_opt.trajectory import smooth_jointly
+    from tension_opt.dynamics.trajectory import smooth_jointly
 
     robot = data.draw(robots())
     if robot is None:

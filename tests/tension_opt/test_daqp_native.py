@@ -19,7 +19,7 @@ from tension_opt import presets
 from tension_opt.backends.settings import solver_options
 from tension_opt.kernels import daqp_native
 from tension_opt.kernels.dense_qp import DaqpPose
-from tension_opt.sampling import random_feasible_poses
+from tension_opt.workspace.sampling import random_feasible_poses
 
 daqp = pytest.importorskip("daqp")
 # On a verified version the native path must load (a failed check fails the tests).

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from tension_opt.errors import InvalidInputError
-from tension_opt.executors import (
+from tension_opt.workspace.executors import (
     DASK_ADDRESS_VARIABLE,
     InProcessExecutor,
     ProcessPoolExecutor,

@@ -1,4 +1,5 @@
-"""The certified closed form of large batches (:mod:`tension_opt.fused`) against the
+"""The certified closed form of large batches (:mod:`tension_opt.distribution.certified`) against
+the
 chunk-by-chunk path it replaces.
 
 A batch of independent poses larger than ``chunk_size`` on the compiled closed form
@@ -31,13 +32,13 @@ import tension_opt as to
 from benchmarks.random_robots import random_robot, random_robot_poses
 from tension_opt import presets
 from tension_opt.backends.closed_form import ClosedFormBackend
+from tension_opt.distribution.certified import CertifiedBatch, certified_plan
 from tension_opt.errors import InvalidInputError
-from tension_opt.fused import CertifiedBatch, certified_plan
-from tension_opt.problems import TensionProblem
-from tension_opt.sampling import default_box, random_feasible_poses
+from tension_opt.problem.form import TensionProblem
 from tension_opt.status import STATUS_DTYPE, STATUS_TABLE, StatusCodes, status_codes
+from tension_opt.workspace.sampling import default_box, random_feasible_poses
 
-distribute_module = importlib.import_module("tension_opt.distribute")
+distribute_module = importlib.import_module("tension_opt.distribution.entry")
 
 REL = 1e-12
 #: Fields compared to 1e-12 (relative, or absolute in the scaled units of the

@@ -1,5 +1,5 @@
 """The certified closed form of four-cable point robots with poses side by side
-(:mod:`tension_opt.kernels.lanes`) against the pose-by-pose kernel it stands for.
+(:mod:`tension_opt.kernels.certified_lanes`) against the pose-by-pose kernel it stands for.
 
 :func:`tension_opt.kernels.certified.certified_poses` runs a point robot on four
 cables in blocks of poses; with ``side_by_side=False`` it runs every pose by the
@@ -19,14 +19,14 @@ from hypothesis import strategies as st
 import tension_opt as to
 from benchmarks.random_robots import random_robot, random_robot_poses
 from tension_opt import presets
-from tension_opt.certificate import RIDGE
+from tension_opt.distribution.certified import CertifiedBatch, certified_plan
 from tension_opt.errors import InvalidInputError
-from tension_opt.fused import CertifiedBatch, certified_plan
 from tension_opt.kernels.certified import certified_poses, problem_views
+from tension_opt.kernels.certified_lanes import LANES, REDO, lane_poses
 from tension_opt.kernels.closed_form import HEADER
-from tension_opt.kernels.lanes import LANES, REDO, lane_poses
-from tension_opt.problems import ROW_FLOOR, UB_SHARE, TensionProblem
-from tension_opt.sampling import default_box
+from tension_opt.problem.form import TensionProblem
+from tension_opt.tolerances import RIDGE, ROW_FLOOR, UB_SHARE
+from tension_opt.workspace.sampling import default_box
 
 OBJECTIVES = ["min_sum", "min_norm", "pinv", "centered"]
 #: The outputs of certified_poses, in its order after the poses and wrenches.

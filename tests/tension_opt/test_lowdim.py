@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog, minimize
 
-from tension_opt.backends.lowdim import infeasibility_1d, interval, lp_2d, qp_2d
-from tension_opt.nullspace import min_of_max_lines
+from tension_opt.backends.lowdim import infeasibility_1d, interval, lp_2d, min_of_max_lines, qp_2d
 
 
 def test_interval_of_a_line_within_bounds() -> None:

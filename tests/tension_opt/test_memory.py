@@ -23,14 +23,14 @@ from hypothesis import strategies as st
 import tension_opt as to
 from tension_opt.backends.base import RawResult
 from tension_opt.backends.closed_form import ClosedFormBackend
-from tension_opt.distribute import CHUNK_SIZE
+from tension_opt.distribution.entry import CHUNK_SIZE
 from tension_opt.errors import InvalidInputError
-from tension_opt.nullspace import safe_norm, solution_set, typical_tension
-from tension_opt.problems import StandardForm, TensionProblem
-from tension_opt.sampling import default_box, feasible_mask, random_feasible_poses
+from tension_opt.problem.affine import safe_norm, solution_set, typical_tension
+from tension_opt.problem.form import StandardForm, TensionProblem
+from tension_opt.workspace.sampling import default_box, feasible_mask, random_feasible_poses
 
 # The module (the package's name ``distribute`` is the function).
-distribute_module = importlib.import_module("tension_opt.distribute")
+distribute_module = importlib.import_module("tension_opt.distribution.entry")
 
 #: Poses of the memory test: above ten chunks, and enough that the unchunked path needs
 #: over 2 GB (the two-dimensional closed form holds about 23 kB per pose at once).
@@ -315,7 +315,7 @@ def test_distribute_reports_a_1e300_wrench_infeasible(robot_name: str) -> None:
 
 
 def test_capacity_margin_in_chunks_equals_one_batch(monkeypatch: pytest.MonkeyPatch) -> None:
-    import tension_opt.margin as margin_module
+    import tension_opt.workspace.margin as margin_module
 
     robot = to.presets.cogiro()
     poses = random_feasible_poses(robot, 50, seed=3)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import tension_opt as to
-from tension_opt.objectives import OBJECTIVES, Objective, ObjectiveTerms, get_objective
+from tension_opt.problem.objectives import OBJECTIVES, Objective, ObjectiveTerms, get_objective
 
 RNG = np.random.default_rng(7)
 N, M = 6, 4

@@ -99,7 +99,7 @@ def test_inverse_then_forward_kinematics_returns_the_pose(case):
 @SETTINGS
 @given(st.integers(0, 2**32 - 1))
 def test_rate_limit_holds_and_joint_smoothing_is_optimal_for_its_path_cost(seed):
-    from tension_opt.trajectory import smooth_jointly
+    from tension_opt.dynamics.trajectory import smooth_jointly
 
     rng = np.random.default_rng(seed)
     robot = to.presets.algae_harvester()

@@ -12,13 +12,13 @@ import pytest
 
 import tension_opt as to
 from tension_opt import presets
+from tension_opt.distribution.certified import CertifiedBatch
+from tension_opt.distribution.solution import per_pose_arrays
 from tension_opt.errors import InvalidInputError
-from tension_opt.fused import CertifiedBatch
-from tension_opt.problems import TensionProblem
-from tension_opt.sampling import default_box
-from tension_opt.solution import per_pose_arrays
+from tension_opt.problem.form import TensionProblem
+from tension_opt.workspace.sampling import default_box
 
-distribute_module = importlib.import_module("tension_opt.distribute")
+distribute_module = importlib.import_module("tension_opt.distribution.entry")
 
 
 def box_poses(robot: to.CableRobot, N: int, seed: int) -> np.ndarray:

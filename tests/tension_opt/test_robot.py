@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import tension_opt as to
-from tension_opt.presets import PUBLISHED
+from tension_opt.robot.presets import PUBLISHED
 
 
 @pytest.mark.parametrize("name", sorted(PUBLISHED))

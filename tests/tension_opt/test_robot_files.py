@@ -15,10 +15,10 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import tension_opt as to
-from tension_opt import robot_files
+from tension_opt.cli import main
 from tension_opt.kinds import KINDS
-from tension_opt.presets import PUBLISHED, algae_harvester_from_parameters
-from tension_opt.robot_cli import main
+from tension_opt.robot import files as robot_files
+from tension_opt.robot.presets import PUBLISHED, algae_harvester_from_parameters
 
 ROOT = Path(__file__).resolve().parents[2]
 PRESETS = {"algae_harvester": to.presets.algae_harvester, **PUBLISHED}
@@ -327,11 +327,11 @@ def test_check_of_a_bad_file_exits_2_with_the_message(tmp_path: Path,
 
 
 def test_python_dash_m_tension_opt_robot_check(tmp_path: Path) -> None:
-    good = subprocess.run([sys.executable, "-m", "tension_opt.robot", "check", str(GOOD)],
+    good = subprocess.run([sys.executable, "-m", "tension_opt", "check", str(GOOD)],
                           capture_output=True, text=True, timeout=120)
     assert good.returncode == 0, good.stderr
     assert "cables:          8" in good.stdout and good.stderr == ""
     path, _ = _bad_file(tmp_path, "kind: spatial6", "kind: hexapod")
-    bad = subprocess.run([sys.executable, "-m", "tension_opt.robot", "check", str(path)],
+    bad = subprocess.run([sys.executable, "-m", "tension_opt", "check", str(path)],
                          capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and "kind: unknown kind 'hexapod'" in bad.stderr

@@ -1,6 +1,9 @@
-"""The shared random-feasible-pose sampler (tension_opt.sampling) behind the random scenarios."""
+"""The shared random-feasible-pose sampler (tension_opt.workspace.sampling) behind the random
+scenarios."""
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -8,7 +11,7 @@ import pytest
 import tension_opt as to
 from benchmarks.scenarios import POND_HIGH, POND_LOW, SCENARIOS
 from tension_opt.errors import InvalidInputError
-from tension_opt.sampling import default_box, feasible_mask, random_feasible_poses
+from tension_opt.workspace.sampling import default_box, feasible_mask, random_feasible_poses
 
 
 def test_poses_are_feasible_in_the_box_and_reproducible() -> None:
@@ -35,7 +38,8 @@ def test_the_random_scenarios_use_it() -> None:
 @pytest.mark.parametrize("make", [to.presets.algae_harvester, to.presets.cogiro,
                                   to.presets.ipanema3, to.presets.kntu_planar,
                                   to.presets.point_xz_4cable])
-def test_default_box_holds_feasible_poses_of_every_kind(make) -> None:  # type: ignore[no-untyped-def]
+def test_default_box_holds_feasible_poses_of_every_kind(make: Callable[[], to.CableRobot]
+                                                         ) -> None:
     robot = make()
     low, high = default_box(robot)
     assert low.shape == high.shape == (robot.dof,) and (low < high).all()

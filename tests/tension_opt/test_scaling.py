@@ -9,9 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import tension_opt as to
-from tension_opt.problems import StandardForm, as_problem
-from tension_opt.sampling import random_feasible_poses
-from tension_opt.scaled import compiled_scaling, scaled_batch
+from tension_opt.certify.scaling import compiled_scaling, scaled_batch
+from tension_opt.problem.form import StandardForm, as_problem
+from tension_opt.workspace.sampling import random_feasible_poses
 
 
 def _assert_same_scaling(form: StandardForm) -> None:

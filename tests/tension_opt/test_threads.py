@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import tension_opt as to
-from tension_opt.sampling import random_feasible_poses
+from tension_opt.workspace.sampling import random_feasible_poses
 
 THREADS = 8
 POSES = 100

@@ -11,8 +11,8 @@ from tension_opt.backends.tiebreak import (
     lp_optimum_is_unique,
     optimal_face,
 )
-from tension_opt.certificate import certify_form
-from tension_opt.problems import StandardForm
+from tension_opt.certify.certificate import certify_form
+from tension_opt.problem.form import StandardForm
 
 
 def _form(c: list[float], minmax: bool = False) -> StandardForm:

@@ -1,4 +1,4 @@
-"""The steps of :mod:`tension_opt.kernels.lanes` on one block of :data:`LANES` poses.
+"""The steps of :mod:`tension_opt.kernels.certified_lanes` on one block of :data:`LANES` poses.
 
 Every intermediate value lives in one work array in "structure of arrays" order: field
 ``f`` of lane ``l`` at ``f * LANES + l`` (:func:`at`; the fields ``F_*`` below), at
@@ -9,7 +9,7 @@ a call, even numba's ``max`` or a tuple read at a constant index in cached code,
 a loop from vectors). So every lane gets the pose-by-pose answer to the last bit.
 
 A lane that leaves the common path is flagged (``F_GOOD``, ``F_FIT`` zero, or
-``F_CODE`` :data:`REDO`); :func:`~tension_opt.kernels.lanes.lane_poses` hands its pose
+``F_CODE`` :data:`REDO`); :func:`~tension_opt.kernels.certified_lanes.lane_poses` hands its pose
 back.
 """
 
@@ -21,9 +21,9 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from tension_opt.kernels.certificate import nan_max
 from tension_opt.kernels.closed_form import HUGE
 from tension_opt.kernels.lowdim import FEAS_TOL, FLAT_TOL
-from tension_opt.kernels.measures import nan_max
 
 __all__ = ["FIELDS", "F_A", "F_AEQ", "F_B0", "F_B1", "F_B2", "F_BEQ", "F_CODE", "F_CS", "F_DUAL",
            "F_FIT", "F_GAP", "F_GOOD", "F_INFEASIBLE", "F_LBS", "F_N", "F_OVER", "F_P0", "F_P1",
@@ -311,7 +311,7 @@ def _pick(cond: bool, a: float, b: float) -> float:
 def _grad(S: NDArray, Pi: float, i: int, lane: int) -> tuple[float, float, float, float,
                                                         float]:
     """Gradient, shrink factor and ``B[i, :] = Aeq[:, i]`` of scaled variable ``i``
-    (:func:`~tension_opt.kernels.multipliers.pose_estimate`)."""
+    (:func:`~tension_opt.kernels.certificate.pose_estimate`)."""
     x = S[at(F_X + i, lane)]
     grad = Pi * x + S[at(F_CS + i, lane)]
     near = fmin(abs(x - S[at(F_LBS + i, lane)]), abs(S[at(F_UBS + i, lane)] - x))
@@ -351,7 +351,7 @@ def _multiplier(S: NDArray, i: int, lane: int, grad: float, shrink: float, t0: f
 def _solve3(h00: float, h01: float, h02: float, h11: float, h12: float, h22: float,
             u0: float, u1: float, u2: float) -> tuple[float, float, float, bool]:
     """``H v = u`` for symmetric ``H`` (its upper triangle given) by
-    :func:`~tension_opt.kernels.multipliers.solve_small`'s elimination with partial
+    :func:`~tension_opt.kernels.certificate.solve_small`'s elimination with partial
     pivoting, its row swaps written as choices; ``(v, ok)``, ok False for a zero or
     non-finite pivot."""
     # rows of H (symmetric at the start) and u, eliminated as solve_small does
@@ -411,8 +411,8 @@ def _solve3(h00: float, h01: float, h02: float, h11: float, h12: float, h22: flo
 
 @njit(cache=True, error_model="numpy", inline="always")
 def estimate_step(S: NDArray, P: tuple, ridge: float) -> None:
-    """:func:`~tension_opt.kernels.multipliers.pose_estimate` (three equations, no
-    rows), :func:`~tension_opt.kernels.multipliers.solve_small`'s elimination written
+    """:func:`~tension_opt.kernels.certificate.pose_estimate` (three equations, no
+    rows), :func:`~tension_opt.kernels.certificate.solve_small`'s elimination written
     with choices for its pivoting."""
     # The weights as numbers: a tuple read at a constant index is a call numba's
     # cached code does not inline, and a call keeps the loop from vectors.
@@ -447,7 +447,7 @@ def estimate_step(S: NDArray, P: tuple, ridge: float) -> None:
 
 @njit(cache=True, error_model="numpy", inline="always")
 def certify_step(S: NDArray, P: tuple, target: float) -> None:
-    """:func:`~tension_opt.kernels.measures.pose_measures` (no rows), the verdict of the
+    """:func:`~tension_opt.kernels.certificate.pose_measures` (no rows), the verdict of the
     pose-by-pose loop and ``_in_cones``: the status code, or :data:`REDO`."""
     for lane in range(LANES):
         first = 0.0

@@ -5,7 +5,7 @@ from the drawing points, :func:`default_box`) and keeps those where the minimum-
 problem is optimal, i.e. the platform's weight can be held with every tension within
 the robot's bounds (tightened by ``margin``). Poses are drawn and checked in rounds of
 ``batch`` poses, each round checked in vectorised :func:`tension_opt.distribute` calls of
-:data:`tension_opt.distribute.CHUNK_SIZE` poses (only the mask is kept, so memory grows
+:data:`tension_opt.distribution.entry.CHUNK_SIZE` poses (only the mask is kept, so memory grows
 with ``batch`` and ``n`` by a pose's coordinates only).
 
 The same seed, box and batch always give the same poses: each position coordinate is
@@ -20,9 +20,9 @@ import operator
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tension_opt.distribute import CHUNK_SIZE, distribute
+from tension_opt.distribution.entry import CHUNK_SIZE, distribute
 from tension_opt.errors import InvalidInputError
-from tension_opt.problems import TensionProblem
+from tension_opt.problem.form import TensionProblem
 from tension_opt.robot import CableRobot
 
 __all__ = ["DEFAULT_ANGLE", "ROUNDS", "default_box", "feasible_mask", "random_feasible_poses"]

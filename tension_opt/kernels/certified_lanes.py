@@ -3,7 +3,7 @@
 :func:`tension_opt.kernels.certified.certified_poses` runs its steps pose by pose; for
 the commonest redundant robot (a point platform on four cables: three equations, a
 null space of dimension 1) and an objective without a min-max term, :func:`lane_poses`
-runs the same steps (:mod:`tension_opt.kernels.lane_steps`) on :data:`LANES` poses at
+runs the same steps (:mod:`tension_opt.kernels.certified_lane_steps`) on :data:`LANES` poses at
 once, so that the compiler puts one pose in each lane of the vector unit, and writes
 the results as the pose-by-pose loop writes them, to the last bit (tests compare them).
 
@@ -23,8 +23,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from tension_opt.kernels.closed_form import plain, point4_distance
-from tension_opt.kernels.lane_steps import (
+from tension_opt.kernels.certified_lane_steps import (
     F_CODE,
     F_DUAL,
     F_GAP,
@@ -54,6 +53,7 @@ from tension_opt.kernels.lane_steps import (
     point4_step,
     turned,
 )
+from tension_opt.kernels.closed_form import plain, point4_distance
 
 __all__ = ["LANES", "REDO", "lane_poses"]
 
@@ -138,8 +138,8 @@ def lane_poses(data: NDArray, views: tuple[NDArray, ...], target: float, code: i
     rows_out, flags_out, measured : tuple
         The output arrays of ``certified_poses``.
     ridge, ub_share, row_floor : float
-        :data:`tension_opt.certificate.RIDGE`, :data:`tension_opt.problems.UB_SHARE`,
-        :data:`tension_opt.problems.ROW_FLOOR`.
+        :data:`tension_opt.certify.certificate.RIDGE`, :data:`tension_opt.problem.form.UB_SHARE`,
+        :data:`tension_opt.problem.form.ROW_FLOOR`.
 
     Returns
     -------

@@ -1,7 +1,7 @@
 """A batch of problems as the generic solvers see it: scaled, lifted, dense, per pose.
 
-:func:`scaled_batch` writes a :class:`~tension_opt.problems.StandardForm` in the units
-of :meth:`StandardForm.scaling <tension_opt.problems.StandardForm.scaling>` (tensions
+:func:`scaled_batch` writes a :class:`~tension_opt.problem.form.StandardForm` in the units
+of :func:`scaling_reference` (tensions
 over a reference tension, equilibrium rows over their norms, objective over its size)
 and lifts a min-max term to an epigraph variable ``t >= (v_i / vmax) x_i``::
 
@@ -9,7 +9,7 @@ and lifts a min-max term to an epigraph variable ``t >= (v_i / vmax) x_i``::
     subject to Aeq x = beq,  G x <= h,  lb <= x <= ub
 
 Every generic backend hands these matrices to its solver, and the certificate of any
-solution (:mod:`tension_opt.certificate`) is measured on the same matrices, so a
+solution (:mod:`tension_opt.certify.certificate`) is measured on the same matrices, so a
 solver's tolerance and the certificate mean the same thing.
 """
 
@@ -22,10 +22,80 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from tension_opt.problems import ROW_FLOOR, UB_SHARE, Scaling, StandardForm
+from tension_opt.problem.form import StandardForm
+from tension_opt.tolerances import ROW_FLOOR, UB_SHARE
 
-__all__ = ["ScaledBatch", "compiled_scaling", "scaled_batch", "scaled_objective",
-           "working_scale"]
+__all__ = ["ScaledBatch", "Scaling", "compiled_scaling", "scaled_batch", "scaled_objective",
+           "scaling_reference", "working_scale"]
+
+
+@dataclass(frozen=True)
+class Scaling:
+    """Nondimensionalisation of a batch, pose by pose (:func:`scaling_reference`,
+    :func:`compiled_scaling`).
+
+    Attributes
+    ----------
+    tension : ndarray, shape (N,)
+        Reference tension ``s`` (N): ``T = s x``.
+    rows : ndarray, shape (N, n)
+        Factors ``1 / ||A_i||`` of the equilibrium rows (a row shorter than
+        :data:`ROW_FLOOR` of the longest is divided by that much only; 1 for a zero
+        matrix).
+    top : ndarray, shape (N,)
+        Largest Hessian entry (QP) or cost (LP, min-max weights included) of the form.
+    quadratic : ndarray of bool, shape (N,)
+        Whether the pose's objective has a quadratic term.
+    vmax : float
+        Largest min-max weight (1 without a min-max term).
+    """
+
+    tension: NDArray
+    rows: NDArray
+    top: NDArray
+    quadratic: NDArray
+    vmax: float
+
+    def objective_unit(self) -> NDArray:
+        """Size of the objective per pose, ``top s^2`` (QP) or ``top s`` (LP), in the
+        form's units: a scaled objective is the form's divided by it, shape (N,)."""
+        with np.errstate(over="ignore"):
+            return self.top * np.where(self.quadratic, self.tension**2, self.tension)
+
+
+def scaling_reference(form: StandardForm) -> Scaling:
+    """How each pose of ``form`` is nondimensionalised for the solvers (see the module
+    docstring of :mod:`tension_opt.problem.form`): the numpy reference of
+    :func:`compiled_scaling`."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        s = np.array(form.scale(), dtype=float)
+    bad = ~np.isfinite(s)
+    if bad.any():  # a wrench near 1e300 N: a finite stand-in keeps the scaled data finite
+        lb = np.where(np.isfinite(form.lb[bad]), np.abs(form.lb[bad]), 0.0)
+        s[bad] = np.maximum(np.maximum(np.abs(form.b[bad]).max(axis=1, initial=0.0),
+                                       lb.max(axis=1, initial=0.0)), 1e-12)
+    # A pose that needs little tension (no load, a small lower bound) keeps its box
+    # at most 1e3 reference tensions wide: interior-point solvers stall on wider ones.
+    ub = np.where(np.isfinite(form.ub), np.abs(form.ub), 0.0).max(axis=1, initial=0.0)
+    s = np.maximum(s, UB_SHARE * ub)
+    with np.errstate(over="ignore", invalid="ignore"):
+        norms = np.linalg.norm(form.A, axis=2)
+        # A row far shorter than the others (a moment the cables can hardly make, or
+        # one that is zero but for rounding) is scaled up by 1e3 at most: blown up to
+        # unit length, its rounding would become an equation.
+        floor = ROW_FLOOR * norms.max(axis=1, initial=0.0)[:, None]
+        size = np.maximum(norms, floor)
+        rows = np.where((size > 0) & np.isfinite(size),
+                        1.0 / np.where(size > 0, size, 1.0), 1.0)
+    quadratic = form.q.max(axis=1, initial=0.0)
+    linear = np.abs(form.c).max(axis=1, initial=0.0)
+    vmax = 1.0
+    if form.minmax is not None:
+        vmax = float(np.abs(form.minmax).max(initial=0.0)) or 1.0
+        linear = np.maximum(linear, vmax)
+    square = quadratic > 0
+    top = np.where(square, quadratic, np.where(linear > 0, linear, 1.0))
+    return Scaling(tension=s, rows=rows, top=top, quadratic=square, vmax=vmax)
 
 
 @dataclass
@@ -47,7 +117,7 @@ class ScaledBatch:
     m : int
         Number of cables.
     scaling : Scaling
-        The form's :class:`~tension_opt.problems.Scaling`.
+        The form's :class:`Scaling`.
     epigraph : ndarray, shape (m,), optional
         Min-max weights over their largest (the epigraph rows), None without min-max.
     """
@@ -102,7 +172,7 @@ class ScaledBatch:
 
 def working_scale(form: StandardForm) -> NDArray:
     """Reference tension per pose (N), shape (N,), finite even where
-    :meth:`StandardForm.scale` overflows (``form.scaling().tension``); the batch's
+    :meth:`StandardForm.scale` overflows (``scaling_reference(form).tension``); the batch's
     when it is already built, else the scaling kernel's alone (building the whole
     scaled batch only for this would be wasted)."""
     with _CACHE_LOCK:
@@ -125,9 +195,9 @@ def scaled_objective(form: StandardForm, s: NDArray | None = None,
     ----------
     form : StandardForm
     s : ndarray, shape (N,), optional
-        Reference tension per pose (N); default ``form.scaling().tension``.
+        Reference tension per pose (N); default ``scaling_reference(form).tension``.
     scaling : Scaling, optional
-        ``form.scaling()``, if already at hand.
+        ``scaling_reference(form)``, if already at hand.
 
     Returns
     -------
@@ -138,7 +208,7 @@ def scaled_objective(form: StandardForm, s: NDArray | None = None,
     v : ndarray, shape (m,), or None
         Min-max weights over their largest, ``v / vmax``.
     """
-    scaling = form.scaling() if scaling is None else scaling
+    scaling = scaling_reference(form) if scaling is None else scaling
     s = scaling.tension if s is None else s
     top = scaling.top
     per_s = np.where(scaling.quadratic, s, 1.0)  # a QP's linear term also shrinks by s
@@ -177,7 +247,7 @@ def scaled_batch(form: StandardForm) -> ScaledBatch:
 
 
 def compiled_scaling(form: StandardForm) -> Scaling:
-    """:meth:`StandardForm.scaling` by the compiled kernel
+    """:func:`scaling_reference` by the compiled kernel
     (:mod:`tension_opt.kernels.scaling`; the method is its reference)."""
     from tension_opt.kernels.arrays import frozen
     from tension_opt.kernels.scaling import batch_scaling

@@ -1,7 +1,7 @@
 """Tension distribution along trajectories: pointwise, smoothed, rate-limited, joint.
 
 Pointwise, penalty-smoothed and rate-limited distributions are :func:`distribute` with
-the right :class:`~tension_opt.problems.TensionProblem`; :func:`smooth_jointly` solves
+the right :class:`~tension_opt.problem.form.TensionProblem`; :func:`smooth_jointly` solves
 the whole path as one sparse QP::
 
     minimise   sum_k f(T_k) + weight * sum_k ||T_k - T_{k-1}||^2
@@ -18,18 +18,19 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.backends.base import note_error, quiet_solvers
-from tension_opt.backends.dense import working_scale
 from tension_opt.backends.registry import get_backend
 from tension_opt.backends.settings import check_options, solver_options
-from tension_opt.distribute import distribute
+from tension_opt.certify.scaling import working_scale
+from tension_opt.distribution.entry import distribute
+from tension_opt.distribution.solution import TensionSolution
 from tension_opt.errors import (
     BackendNotAvailableError,
     InvalidInputError,
     UnsupportedProblemError,
 )
-from tension_opt.problems import StandardForm, as_problem
+from tension_opt.problem.form import StandardForm, as_problem
 from tension_opt.robot import CableRobot
-from tension_opt.solution import Status, TensionSolution, status_array
+from tension_opt.status import Status, status_array
 
 __all__ = ["smooth_jointly", "solve_trajectory"]
 

@@ -3,7 +3,7 @@ compiled pass per chunk (:mod:`tension_opt.kernels.certified`).
 
 :func:`tension_opt.distribute` cuts a large batch into chunks; on the compiled closed
 form each chunk would go through the geometry, the standard form, the backend and
-:meth:`~tension_opt.solution.TensionSolution.from_form` (the certificate on the scaled
+:meth:`~tension_opt.distribution.solution.TensionSolution.from_form` (the certificate on the scaled
 batch) as arrays of the chunk, then be copied into the batch's arrays. Here one
 compiled call per chunk does all of it pose by pose and writes the results into the
 arrays of the whole batch. A pose it does not settle (see the kernel's module) is
@@ -26,14 +26,16 @@ from numpy.typing import NDArray
 
 from tension_opt.backends.closed_form import ClosedFormBackend
 from tension_opt.backends.registry import choose_backend
-from tension_opt.certificate import Multipliers, accuracy_target
+from tension_opt.certify.certificate import Multipliers
+from tension_opt.distribution.solution import TensionSolution, reused_array
 from tension_opt.errors import TensionOptError
-from tension_opt.problems import TensionProblem
+from tension_opt.problem.form import TensionProblem
+from tension_opt.problem.objectives import Centered, MinMax, MinNorm, MinSum, Pinv
 from tension_opt.robot import CableRobot
-from tension_opt.solution import STATUS_DTYPE, TensionSolution, reused_array
-from tension_opt.status import StatusCodes, status_codes
+from tension_opt.status import STATUS_DTYPE, StatusCodes, status_codes
+from tension_opt.tolerances import accuracy_target
 
-__all__ = ["CertifiedBatch", "CertifiedPlan", "certified_plan"]
+__all__ = ["CertifiedBatch", "CertifiedPlan", "certified_plan", "pack_certified"]
 
 
 @dataclass(frozen=True)
@@ -58,7 +60,6 @@ def certified_plan(robot: CableRobot, problem: TensionProblem, backend: Any,
     the call's ``accuracy`` option, or None where the call does not qualify (see the
     module docstring). A problem or backend the path would reject is None too: the path
     raises its own error."""
-    from tension_opt.kernels.certified import pack_certified
     from tension_opt.kernels.geometry import compiled_kind
 
     if problem.is_sequential or compiled_kind(robot) < 0:
@@ -100,7 +101,7 @@ class CertifiedBatch:
         Finite external wrenches (N, N m).
     out : TensionSolution, optional
         A solution whose C-contiguous arrays take the results (checked by
-        :func:`~tension_opt.solution.reusable`); others are allocated.
+        :func:`~tension_opt.distribution.solution.reusable`); others are allocated.
     """
 
     def __init__(self, plan: CertifiedPlan, poses: NDArray, wrench: NDArray | None,
@@ -188,3 +189,38 @@ class CertifiedBatch:
             backend=backend.name, solver=backend.solver, solver_version=backend.version,
             problem=problem, extras=extras, form=None, accuracy=self.plan.target,
             multipliers=self.multipliers, **self.measures)
+
+
+def pack_certified(robot: Any, problem: Any, target: float) -> NDArray | None:
+    """:func:`~tension_opt.kernels.closed_form.pack_problem` of a robot and a problem
+    (no per-pose rows, no smoothing), followed by what the certificate needs: ``target,
+    objective code, vmax`` and the objective's weights ``w`` and target tensions ``r``
+    (m,) each. None for an objective other than the package's five."""
+    from tension_opt.kernels.certified import DISTANCE, LINEAR, MAX
+    from tension_opt.kernels.closed_form import HEADER, pack_problem
+
+    m = robot.m
+    w = problem.cable_weights(m)
+    r = np.zeros(m)
+    objective = problem.objective
+    if type(objective) is MinSum:
+        code = LINEAR
+    elif type(objective) is MinMax:
+        code = MAX
+    elif type(objective) is MinNorm:
+        code = DISTANCE
+        if problem.reference is not None:
+            r = np.broadcast_to(np.asarray(problem.reference, dtype=float), (1, m))[0]
+    elif type(objective) is Centered:
+        code = DISTANCE
+        lb, ub = problem.bounds(robot, 1)
+        r = 0.5 * (lb[0] + ub[0])
+    elif type(objective) is Pinv:
+        code, w = DISTANCE, np.ones(m)
+    else:
+        return None
+    data = pack_problem(robot, problem, target)
+    vmax = 0.0
+    if code == MAX:
+        vmax = float(np.abs(data[HEADER + 8 * m:HEADER + 9 * m]).max(initial=0.0)) or 1.0
+    return np.ascontiguousarray(np.concatenate([data, [target, code, vmax], w, r]))

@@ -1,7 +1,7 @@
 """Preset robots: the reference algae-harvesting robot and published CDPR geometries.
 
-Each preset is a robot description file in ``tension_opt/data/`` (YAML, the format of
-:mod:`tension_opt.robot_files`), read by :meth:`CableRobot.from_file`; the files also
+Each preset is a robot description file in ``tension_opt/robot/data/`` (YAML, the format of
+:mod:`tension_opt.robot.files`), read by :meth:`CableRobot.from_file`; the files also
 say where their numbers come from.
 """
 
@@ -96,7 +96,7 @@ def algae_harvester_from_parameters(**overrides: Any) -> CableRobot:
 
 def _from_data(name: str) -> CableRobot:
     """The preset robot of ``data/<name>.yaml``."""
-    with resources.as_file(resources.files("tension_opt") / "data" / f"{name}.yaml") as path:
+    with resources.as_file(resources.files("tension_opt.robot") / "data" / f"{name}.yaml") as path:
         return CableRobot.from_file(path)
 
 

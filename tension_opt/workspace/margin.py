@@ -16,7 +16,7 @@ wrench).
 How it is computed
 ------------------
 Tensions in equilibrium are ``T = T0 + Z z`` (minimum-norm particular solution and an
-orthonormal null-space basis, from a batched SVD: :func:`tension_opt.nullspace.solution_set`),
+orthonormal null-space basis, from a batched SVD: :func:`tension_opt.problem.affine.solution_set`),
 so the margin is the small linear program ``max s : a_l . z + s <= beta_l`` over the
 bound lines ``l``. Its dual is ``min sum_l lambda_l beta_l`` over ``lambda >= 0``,
 ``sum lambda = 1``, ``sum lambda_l a_l = 0``, whose vertices have at most ``d + 1``
@@ -41,20 +41,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.backends.base import Backend
+from tension_opt.backends.lowdim import bound_lines, min_of_max_lines
 from tension_opt.backends.registry import LP_ORDER, available_backends, choose_backend
 from tension_opt.backends.settings import check_options
 from tension_opt.checks import as_float_array
 from tension_opt.errors import InvalidInputError, UnsupportedProblemError
-from tension_opt.nullspace import (
-    SolutionSet,
-    bound_lines,
-    min_of_max_lines,
-    solution_set,
-    typical_tension,
-)
-from tension_opt.problems import StandardForm
+from tension_opt.problem.affine import SolutionSet, solution_set, typical_tension
+from tension_opt.problem.form import StandardForm
 from tension_opt.robot import CableRobot
-from tension_opt.solution import STATUS_DTYPE, Status, status_array
+from tension_opt.status import STATUS_DTYPE, Status, status_array
 
 __all__ = [
     "LP_CAP",
@@ -118,7 +113,7 @@ def _maxmin_1d(a: NDArray, gamma: NDArray, beta: NDArray, valid: NDArray,
     """``max s : a_l z + gamma_l s <= beta_l`` over scalar ``z``, for all poses at once.
 
     ``s(z) = min_l (beta_l - a_l z) / gamma_l`` is concave, so ``-s`` is the maximum of
-    lines that :func:`tension_opt.nullspace.min_of_max_lines` minimises exactly.
+    lines that :func:`tension_opt.problem.affine.min_of_max_lines` minimises exactly.
 
     Parameters
     ----------

@@ -1,7 +1,7 @@
 """Certificates of optimality: primal residual, dual residual and duality gap per pose.
 
 Every solution is judged on the scaled problem every generic solver is given
-(:mod:`tension_opt.scaled`; tensions over a reference tension, equilibrium rows over
+(:mod:`tension_opt.certify.scaling`; tensions over a reference tension, equilibrium rows over
 their norms, objective of order one)::
 
     minimise 1/2 x'Px + c'x   s.t.  Aeq x = beq,  G x <= h,  lb <= x <= ub
@@ -38,19 +38,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from tension_opt.checks import is_number
-from tension_opt.errors import InvalidInputError
-from tension_opt.problems import StandardForm
-from tension_opt.scaled import ScaledBatch, scaled_batch
+from tension_opt.certify.scaling import ScaledBatch, scaled_batch
+from tension_opt.problem.form import StandardForm
+from tension_opt.tolerances import DEFAULT_TARGET, RIDGE
 
 __all__ = [
-    "ACCURACY_TARGETS",
-    "DEFAULT_TARGET",
-    "HIGH_TARGET",
-    "RIDGE",
     "Certificate",
     "Multipliers",
-    "accuracy_target",
     "certify",
     "certify_form",
     "estimate_multipliers",
@@ -59,39 +53,6 @@ __all__ = [
     "measures_reference",
     "primal_residual_of",
 ]
-
-#: Target of ``accuracy="default"`` on the three measures of the scaled problem.
-DEFAULT_TARGET = 1e-7
-#: Target of ``accuracy="high"``.
-HIGH_TARGET = 1e-10
-#: Accuracy names and their targets.
-ACCURACY_TARGETS: dict[str, float] = {"default": DEFAULT_TARGET, "high": HIGH_TARGET}
-#: Loosest and tightest numeric targets accepted (below 1e-14 rounding alone fails).
-_LOOSEST, _TIGHTEST = 1e-2, 1e-14
-#: Ridge of the dual fit, relative to its largest diagonal entry (a rank-deficient
-#: structure matrix leaves some equation multipliers free).
-RIDGE = 1e-13
-
-
-def accuracy_target(accuracy: object) -> float:
-    """The target of an ``accuracy`` option: ``"default"`` (or None) 1e-7, ``"high"``
-    1e-10, or a number between 1e-14 and 1e-2.
-
-    Raises
-    ------
-    InvalidInputError
-        For another name or a number out of range.
-    """
-    if accuracy is None:
-        return DEFAULT_TARGET
-    if isinstance(accuracy, str) and accuracy in ACCURACY_TARGETS:
-        return ACCURACY_TARGETS[accuracy]
-    if is_number(accuracy) and _TIGHTEST <= float(accuracy) <= _LOOSEST:  # type: ignore[arg-type]
-        return float(accuracy)  # type: ignore[arg-type]
-    raise InvalidInputError(
-        f"accuracy must be one of {list(ACCURACY_TARGETS)} or a number between "
-        f"{_TIGHTEST:g} and {_LOOSEST:g} (the target on primal residual, dual residual and "
-        f"duality gap of the scaled problem), got {accuracy!r}")
 
 
 @dataclass
@@ -184,10 +145,10 @@ def measures(batch: ScaledBatch, x: NDArray, mult: Multipliers
     scaled solutions ``x`` (N, k) with the multipliers ``mult`` as given (put in their
     cones first, never estimated); NaN where ``x`` has no solution.
 
-    Measured by the compiled kernel :func:`tension_opt.kernels.measures.batch_measures`;
+    Measured by the compiled kernel :func:`tension_opt.kernels.certificate.batch_measures`;
     :func:`measures_reference` is its numpy reference."""
     from tension_opt.kernels.arrays import frozen
-    from tension_opt.kernels.measures import batch_measures
+    from tension_opt.kernels.certificate import batch_measures
 
     # All read: one array type for every call (see tension_opt.kernels.arrays).
     arrays = [frozen(a) for a in (batch.P, batch.c, batch.Aeq, batch.beq, batch.G, batch.h,
@@ -243,10 +204,10 @@ def _distances(batch: ScaledBatch, x: NDArray) -> tuple[NDArray, NDArray]:
 def estimate_multipliers(batch: ScaledBatch, x: NDArray) -> Multipliers:
     """Multipliers of ``x`` (N, k) by the cheap dual solve (see the module docstring and
     :func:`estimate_multipliers_reference`), by the compiled kernel
-    :func:`tension_opt.kernels.multipliers.batch_estimate`; NaN rows where ``x`` has no
+    :func:`tension_opt.kernels.certificate.batch_estimate`; NaN rows where ``x`` has no
     solution."""
     from tension_opt.kernels.arrays import frozen
-    from tension_opt.kernels.multipliers import batch_estimate
+    from tension_opt.kernels.certificate import batch_estimate
 
     out, idx, sub = _solved_poses(batch, x)
     if sub is not None:
@@ -406,7 +367,7 @@ def certify(batch: ScaledBatch, x: NDArray, multipliers: Multipliers | None = No
 def certify_form(form: StandardForm, tensions: NDArray, multipliers: Multipliers | None = None,
                  target: float = DEFAULT_TARGET) -> Certificate:
     """The certificate of tensions (N, m) (N) as solutions of ``form``
-    (:func:`certify` on :func:`~tension_opt.scaled.scaled_batch`)."""
+    (:func:`certify` on :func:`~tension_opt.certify.scaling.scaled_batch`)."""
     batch = scaled_batch(form)
     return certify(batch, batch.lift(tensions), multipliers, target)
 

@@ -40,7 +40,8 @@ from pydantic import (
 
 from tension_opt.checks import inertia_tensor
 from tension_opt.errors import InvalidInputError, RobotFileError
-from tension_opt.file_formats import (
+from tension_opt.kinds import KINDS
+from tension_opt.robot.formats import (
     SUFFIXES,
     checked_path,
     file_error,
@@ -49,7 +50,6 @@ from tension_opt.file_formats import (
     parse_text,
     yaml_text,
 )
-from tension_opt.kinds import KINDS
 
 __all__ = [
     "FORMAT_VERSION",

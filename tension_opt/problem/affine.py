@@ -4,7 +4,7 @@ Every tension distribution ``A T = b`` (``A`` of shape (N, n, m)) is a particula
 solution ``T0`` plus a combination of null-space vectors ``Z``. This module holds the
 pieces that the closed-form backend (:mod:`tension_opt.backends.closed_form`), the
 low-dimensional solvers (:mod:`tension_opt.backends.lowdim`) and the capacity margin
-(:mod:`tension_opt.margin`) share:
+(:mod:`tension_opt.workspace.margin`) share:
 
 - :func:`typical_tension`: the tension scale of a pose (tolerances are relative to it),
   measured with :func:`safe_norm` (no overflow of squares, wrenches up to the float range);
@@ -26,8 +26,6 @@ __all__ = [
     "CONSISTENCY_TOL",
     "RANK_TOL",
     "SolutionSet",
-    "bound_lines",
-    "min_of_max_lines",
     "pinv_and_null",
     "safe_norm",
     "solution_set",
@@ -204,69 +202,3 @@ def solution_set(A: NDArray, b: NDArray) -> SolutionSet:
     return SolutionSet(T0, Vt, rank, consistent)
 
 
-def bound_lines(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray
-                ) -> tuple[NDArray, NDArray, NDArray]:
-    """Bounds ``lb <= T0 + Z z <= ub`` as half-spaces ``a_l . z <= beta_l`` in ``z``.
-
-    Parameters
-    ----------
-    T0, lb, ub : ndarray, shape (N, m)
-        ``lb`` / ``ub`` may be infinite (no half-space).
-    Z : ndarray, shape (N, m, d)
-
-    Returns
-    -------
-    normals : ndarray, shape (N, 2m, d)
-        ``-Z`` rows (lower bounds), then ``Z`` rows (upper bounds).
-    beta : ndarray, shape (N, 2m)
-        ``T0 - lb``, then ``ub - T0``; 0 where the bound is absent.
-    present : ndarray of bool, shape (N, 2m)
-        Which half-spaces exist (finite bound).
-    """
-    normals = np.concatenate([-Z, Z], axis=1)
-    with np.errstate(invalid="ignore"):
-        beta = np.concatenate([T0 - lb, ub - T0], axis=1)
-    present = np.isfinite(beta)
-    return normals, np.where(present, beta, 0.0), present
-
-
-def min_of_max_lines(slopes: NDArray, intercepts: NDArray, lo: NDArray, hi: NDArray
-                     ) -> tuple[NDArray, NDArray]:
-    """Minimise ``f(t) = max_j (slopes_j t + intercepts_j)`` over ``t`` in ``[lo, hi]``.
-
-    ``f`` is convex; its free minimum is where the highest crossing of a rising and a
-    falling line lies (in one dimension two lines decide the minimum), and the minimum
-    over the interval is that point clipped to it.
-
-    Parameters
-    ----------
-    slopes, intercepts : ndarray, shape (N, J)
-        Lines with intercept ``-inf`` are ignored; lines of slope 0 are constant.
-    lo, hi : ndarray, shape (N,)
-        May be infinite; ``t`` is then infinite where ``f`` keeps falling, and the
-        value is that of the highest constant line (``-inf`` without one).
-
-    Returns
-    -------
-    t, value : ndarray, shape (N,)
-    """
-    rising = (slopes > 0) & np.isfinite(intercepts)
-    falling = (slopes < 0) & np.isfinite(intercepts)
-    a_i, a_j = slopes[:, :, None], slopes[:, None, :]
-    b_i, b_j = intercepts[:, :, None], intercepts[:, None, :]
-    pair = rising[:, :, None] & falling[:, None, :]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t_cross = (b_j - b_i) / (a_i - a_j)  # meaningful where pair
-        v_cross = np.where(pair, a_i * t_cross + b_i, -np.inf)
-    best = np.argmax(v_cross.reshape(len(lo), -1), axis=1)
-    rows = np.arange(len(lo))
-    has_pair = rising.any(axis=1) & falling.any(axis=1)
-    t_free = np.where(has_pair, t_cross.reshape(len(lo), -1)[rows, best],
-                      np.where(rising.any(axis=1), -np.inf,
-                               np.where(falling.any(axis=1), np.inf, 0.0)))
-    t = np.clip(t_free, lo, hi)
-    with np.errstate(invalid="ignore"):
-        # A constant line keeps its value at an infinite t (0 * inf would be NaN).
-        lines = np.where(slopes == 0, intercepts, slopes * t[:, None] + intercepts)
-        value = np.where(np.isfinite(intercepts), lines, -np.inf).max(axis=1)
-    return t, value

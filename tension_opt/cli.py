@@ -1,9 +1,10 @@
-"""Command line for robot files: ``python -m tension_opt.robot check FILE``.
+"""The command line: ``python -m tension_opt check FILE`` and ``python -m tension_opt from-caspr
+...``.
 
 ``check`` validates a robot file (YAML or JSON) and prints a summary of the robot with
 its feasibility and capacity margin at the home pose; exit code 0 for a valid file, 2
 with the validation message for a bad one. ``from-caspr`` writes a robot file from a
-CASPR model (:func:`tension_opt.caspr.load_caspr`).
+CASPR model (:func:`tension_opt.robot.caspr.load_caspr`).
 """
 
 from __future__ import annotations
@@ -15,14 +16,14 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from tension_opt.caspr import load_caspr
-from tension_opt.distribute import distribute
+from tension_opt.distribution.entry import distribute
 from tension_opt.errors import RobotFileError, TensionOptError
-from tension_opt.margin import capacity_margin
 from tension_opt.robot import CableRobot
-from tension_opt.solution import Status
+from tension_opt.robot.caspr import load_caspr
+from tension_opt.status import Status
+from tension_opt.workspace.margin import capacity_margin
 
-PROG = "python -m tension_opt.robot"
+PROG = "python -m tension_opt"
 #: Exit code of a file that does not describe a valid robot (as argparse's usage errors).
 INVALID = 2
 

@@ -1,7 +1,7 @@
 """Result of a tension distribution: :class:`TensionSolution`, with its certificate.
 
 Every solution carries, per pose, the three measures of its certificate on the scaled
-problem (:mod:`tension_opt.certificate`): primal residual, dual residual and duality
+problem (:mod:`tension_opt.certify.certificate`): primal residual, dual residual and duality
 gap, and the accuracy target they are judged against. ``OPTIMAL`` means all three meet
 the target (and the tensions are finite, in equilibrium and within their bounds in
 newtons); a solver's "optimal" that misses it is ``INACCURATE``, its figures kept.
@@ -21,25 +21,23 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from tension_opt.certificate import (
-    DEFAULT_TARGET,
+from tension_opt.certify.certificate import (
     Certificate,
     Multipliers,
-    accuracy_target,
     certify_form,
     primal_residual_of,
 )
 from tension_opt.errors import InvalidInputError
-from tension_opt.status import STATUS_DTYPE, Status, StatusCodes, status_array
+from tension_opt.status import STATUS_DTYPE, Status, StatusCodes
+from tension_opt.tolerances import DEFAULT_TARGET, FEASIBILITY_TOL, accuracy_target
 
-__all__ = ["FEASIBILITY_TOL", "PER_POSE", "STATUS_DTYPE", "Status", "TensionSolution",
-           "per_pose_arrays", "reusable", "reused_array", "status_array"]
+__all__ = ["PER_POSE", "TensionSolution", "per_pose_arrays", "reusable", "reused_array",
+           "solution_of"]
 
 if TYPE_CHECKING:
-    from tension_opt.problems import StandardForm
+    from tension_opt.backends.base import Backend, RawResult
+    from tension_opt.problem.form import StandardForm
 
-#: Relative tolerance (of the typical tension) on equilibrium and bounds of a solution.
-FEASIBILITY_TOL = 1e-6
 #: The per-pose arrays of a solution besides its multipliers (first axis: the poses).
 PER_POSE = ("tensions", "status", "unique", "objective", "residual", "bound_violation",
             "iterations", "infeasibility", "primal_residual", "dual_residual",
@@ -124,14 +122,14 @@ class TensionSolution:
         Time in the solver for the whole batch (s).
     backend, solver, solver_version : str
     problem : object
-        The :class:`~tension_opt.problems.TensionProblem` solved.
+        The :class:`~tension_opt.problem.form.TensionProblem` solved.
     extras : dict
         Backend-specific information.
     form : StandardForm, optional
         The problems solved, against which the diagnostics were measured.
     primal_residual, dual_residual, duality_gap : ndarray, shape (N,)
         The certificate's measures on the scaled problem (dimensionless; see
-        :mod:`tension_opt.certificate`); NaN where the pose has no solution (and the
+        :mod:`tension_opt.certify.certificate`); NaN where the pose has no solution (and the
         last two for a solution not judged on optimality, such as a jointly smoothed
         path).
     accuracy : float
@@ -435,3 +433,16 @@ def _certificate(form: StandardForm, tensions: NDArray, multipliers: Multipliers
     none = Multipliers(np.full((form.N, form.n), np.nan), np.zeros((form.N, 0)),
                        np.full((form.N, form.m), np.nan))
     return Certificate(primal, nan, nan.copy(), target, none), primal <= target
+
+
+def solution_of(form: StandardForm, raw: RawResult, backend: Backend,
+                setup_time: float = 0.0) -> TensionSolution:
+    """The :class:`TensionSolution` of a backend's raw result on ``form``.
+
+    ``setup_time`` (s) is added to the backend's own (e.g. the geometry's).
+    """
+    return TensionSolution.from_form(
+        form, raw.tensions, raw.status, backend=backend.name, solver=backend.solver,
+        solver_version=backend.version, unique=raw.unique, iterations=raw.iterations,
+        infeasibility=raw.infeasibility, setup_time=raw.setup_time + setup_time,
+        solve_time=raw.solve_time, extras=raw.extras)

@@ -1,7 +1,7 @@
 """Tension-distribution problems as data.
 
 A :class:`TensionProblem` says *what* to optimise (an objective from
-:mod:`tension_opt.objectives`, weights, bounds, smoothing terms);
+:mod:`tension_opt.problem.objectives`, weights, bounds, smoothing terms);
 :meth:`TensionProblem.standard_form` turns it, for a robot and a batch of poses, into a
 frozen :class:`StandardForm` that every backend understands::
 
@@ -31,9 +31,9 @@ exact and needs none):
 Dividing a row or the objective by a positive number leaves the minimiser unchanged,
 and every scale is a property of the pose alone (a subset of poses scales as in the
 whole batch). Solver tolerances, the accuracy target and the certificate of a solution
-(primal residual, dual residual, duality gap: :mod:`tension_opt.certificate`) are all
+(primal residual, dual residual, duality gap: :mod:`tension_opt.certify.certificate`) are all
 measured in these units, so ``1e-7`` means the same on every robot and every solver.
-The scaled, lifted matrices are built by :func:`tension_opt.scaled.scaled_batch`.
+The scaled, lifted matrices are built by :func:`tension_opt.certify.scaling.scaled_batch`.
 
 A form also measures any tensions against itself in newtons (equilibrium residual,
 bound violation, objective), which is how a solution's diagnostics are computed.
@@ -50,19 +50,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.checks import is_number
 from tension_opt.errors import InvalidInputError
-from tension_opt.nullspace import typical_tension
-from tension_opt.objectives import Objective, get_objective
+from tension_opt.problem.affine import safe_norm, typical_tension
+from tension_opt.problem.objectives import Objective, get_objective
 from tension_opt.robot import CableRobot
 
-__all__ = ["ROW_FLOOR", "UB_SHARE", "Objective", "Scaling", "StandardForm", "TensionProblem",
+__all__ = [ "Objective", "StandardForm", "TensionProblem",
            "as_problem"]
-
-#: Equilibrium rows are scaled to unit length, but by at most ``1 / ROW_FLOOR`` times the
-#: longest row's factor (see the module docstring).
-ROW_FLOOR = 1e-3
-#: The reference tension is at least this share of the largest finite upper bound (see
-#: :meth:`StandardForm.scaling`).
-UB_SHARE = 1e-3
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,7 +65,7 @@ class TensionProblem:
     Parameters
     ----------
     objective : Objective or str
-        A name from :data:`tension_opt.objectives.OBJECTIVES` (``"min_sum"``,
+        A name from :data:`tension_opt.problem.objectives.OBJECTIVES` (``"min_sum"``,
         ``"min_norm"``, ``"pinv"``, ``"min_max"``, ``"centered"``) or an objective.
     weights : array_like, shape (m,), optional
         Positive per-cable weights of the objective (default ones).
@@ -441,7 +434,7 @@ class StandardForm:
     # ------------------------------------------------------- measuring tensions
     def equilibrium_residual(self, tensions: NDArray) -> NDArray:
         """``||A T - b||_2`` of tensions (N, m), shape (N,) (N, N m)."""
-        return row_norms(np.einsum("nij,nj->ni", self.A, tensions) - self.b)
+        return safe_norm(np.einsum("nij,nj->ni", self.A, tensions) - self.b, axis=1)
 
     def bound_violation(self, tensions: NDArray) -> NDArray:
         """Largest violation of ``lb <= T <= ub`` (N), shape (N,); 0 where they hold."""
@@ -464,12 +457,12 @@ class StandardForm:
         that a pose with nothing to hold and no lower bound is not held to zero), shape
         (N,)."""
         finite_lb = np.where(np.isfinite(self.lb), np.abs(self.lb), 0.0)
-        return np.maximum(np.maximum(row_norms(self.b), finite_lb.max(axis=1, initial=0.0)),
+        return np.maximum(np.maximum(safe_norm(self.b, axis=1), finite_lb.max(axis=1, initial=0.0)),
                           1e-12)
 
     def scale(self) -> NDArray:
         """Typical tension per pose (N), used to normalise the solvers' units, shape (N,)
-        (:func:`tension_opt.nullspace.typical_tension`); read-only, computed once (a
+        (:func:`tension_opt.problem.affine.typical_tension`); read-only, computed once (a
         solve and its tie-break ask for it several times)."""
         known = self.__dict__.get("_typical")
         if known is None:
@@ -477,83 +470,6 @@ class StandardForm:
             known.flags.writeable = False
             object.__setattr__(self, "_typical", known)  # a cache, not a field
         return known
-
-    def scaling(self) -> Scaling:
-        """How each pose is nondimensionalised for the solvers (see the module docstring)."""
-        with np.errstate(over="ignore", invalid="ignore"):
-            s = np.array(self.scale(), dtype=float)
-        bad = ~np.isfinite(s)
-        if bad.any():  # a wrench near 1e300 N: a finite stand-in keeps the scaled data finite
-            lb = np.where(np.isfinite(self.lb[bad]), np.abs(self.lb[bad]), 0.0)
-            s[bad] = np.maximum(np.maximum(np.abs(self.b[bad]).max(axis=1, initial=0.0),
-                                           lb.max(axis=1, initial=0.0)), 1e-12)
-        # A pose that needs little tension (no load, a small lower bound) keeps its box
-        # at most 1e3 reference tensions wide: interior-point solvers stall on wider ones.
-        ub = np.where(np.isfinite(self.ub), np.abs(self.ub), 0.0).max(axis=1, initial=0.0)
-        s = np.maximum(s, UB_SHARE * ub)
-        with np.errstate(over="ignore", invalid="ignore"):
-            norms = np.linalg.norm(self.A, axis=2)
-            # A row far shorter than the others (a moment the cables can hardly make, or
-            # one that is zero but for rounding) is scaled up by 1e3 at most: blown up to
-            # unit length, its rounding would become an equation.
-            floor = ROW_FLOOR * norms.max(axis=1, initial=0.0)[:, None]
-            size = np.maximum(norms, floor)
-            rows = np.where((size > 0) & np.isfinite(size),
-                            1.0 / np.where(size > 0, size, 1.0), 1.0)
-        quadratic = self.q.max(axis=1, initial=0.0)
-        linear = np.abs(self.c).max(axis=1, initial=0.0)
-        vmax = 1.0
-        if self.minmax is not None:
-            vmax = float(np.abs(self.minmax).max(initial=0.0)) or 1.0
-            linear = np.maximum(linear, vmax)
-        square = quadratic > 0
-        top = np.where(square, quadratic, np.where(linear > 0, linear, 1.0))
-        return Scaling(tension=s, rows=rows, top=top, quadratic=square, vmax=vmax)
-
-
-@dataclass(frozen=True)
-class Scaling:
-    """Nondimensionalisation of a batch, pose by pose (:meth:`StandardForm.scaling`).
-
-    Attributes
-    ----------
-    tension : ndarray, shape (N,)
-        Reference tension ``s`` (N): ``T = s x``.
-    rows : ndarray, shape (N, n)
-        Factors ``1 / ||A_i||`` of the equilibrium rows (a row shorter than
-        :data:`ROW_FLOOR` of the longest is divided by that much only; 1 for a zero
-        matrix).
-    top : ndarray, shape (N,)
-        Largest Hessian entry (QP) or cost (LP, min-max weights included) of the form.
-    quadratic : ndarray of bool, shape (N,)
-        Whether the pose's objective has a quadratic term.
-    vmax : float
-        Largest min-max weight (1 without a min-max term).
-    """
-
-    tension: NDArray
-    rows: NDArray
-    top: NDArray
-    quadratic: NDArray
-    vmax: float
-
-    def objective_unit(self) -> NDArray:
-        """Size of the objective per pose, ``top s^2`` (QP) or ``top s`` (LP), in the
-        form's units: a scaled objective is the form's divided by it, shape (N,)."""
-        with np.errstate(over="ignore"):
-            return self.top * np.where(self.quadratic, self.tension**2, self.tension)
-
-
-def row_norms(x: NDArray) -> NDArray:
-    """Euclidean norms of the rows of ``x`` (N, k), shape (N,), without overflow: rows
-    whose squares overflow (entries beyond about 1e154) are measured rescaled."""
-    with np.errstate(over="ignore", invalid="ignore"):
-        r = np.linalg.norm(x, axis=1)
-        bad = ~np.isfinite(r)
-        if bad.any():
-            big = np.abs(x[bad]).max(axis=1, initial=0.0)
-            r[bad] = big * np.linalg.norm(x[bad] / big[:, None], axis=1)
-    return r
 
 
 def as_problem(objective: str | Objective | TensionProblem, **fields: Any) -> TensionProblem:

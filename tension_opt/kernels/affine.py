@@ -1,20 +1,19 @@
 """Compiled null-space pieces of one pose: the affine set ``T = T0 + Z z`` of
 ``A T = b`` and the minimum of a maximum of lines.
 
-References: :func:`tension_opt.nullspace.pinv_and_null` (SVD; here a Householder QR of
+References: :func:`tension_opt.problem.affine.pinv_and_null` (SVD; here a Householder QR of
 ``A^T``, which gives the same minimum-norm ``T0`` and an orthonormal basis of the same
-null space) and :func:`tension_opt.nullspace.min_of_max_lines`.
+null space) and :func:`tension_opt.problem.affine.min_of_max_lines`.
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["COND_LIMIT", "min_of_max_lines", "null_space", "null_space_work"]
+__all__ = ["COND_LIMIT", "null_space", "null_space_work"]
 
 #: Poses whose (Frobenius) condition estimate of ``A`` reaches this are left to the
 #: numpy path, whose singular values decide the rank exactly (it bounds the 2-norm
@@ -128,48 +127,3 @@ def _well_conditioned(M: NDArray, n: int, work: NDArray) -> bool:
     return math.isfinite(cond) and cond < COND_LIMIT
 
 
-@njit(cache=True, error_model="numpy")
-def min_of_max_lines(slopes: NDArray, intercepts: NDArray, lo: float, hi: float
-                     ) -> tuple[float, float]:
-    """Minimise ``max_j (slopes_j t + intercepts_j)`` over ``t`` in ``[lo, hi]``:
-    ``(t, value)``; lines with intercept ``-inf`` are ignored (one pose of
-    :func:`tension_opt.nullspace.min_of_max_lines`, same choices)."""
-    J = slopes.size
-    best_v = -np.inf
-    best_t = np.nan
-    has_pair = any_rising = any_falling = False
-    for i in range(J):
-        if not math.isfinite(intercepts[i]):
-            continue
-        if slopes[i] > 0:
-            any_rising = True
-        elif slopes[i] < 0:
-            any_falling = True
-    for i in range(J):
-        if not (slopes[i] > 0 and math.isfinite(intercepts[i])):
-            continue
-        for j in range(J):
-            if not (slopes[j] < 0 and math.isfinite(intercepts[j])):
-                continue
-            t_cross = (intercepts[j] - intercepts[i]) / (slopes[i] - slopes[j])
-            v = slopes[i] * t_cross + intercepts[i]
-            if not has_pair or v > best_v:
-                best_v, best_t = v, t_cross
-                has_pair = True
-    if has_pair:
-        t_free = best_t
-    elif any_rising:
-        t_free = -np.inf
-    elif any_falling:
-        t_free = np.inf
-    else:
-        t_free = 0.0
-    t = min(max(t_free, lo), hi)
-    value = -np.inf
-    for j in range(J):
-        if not math.isfinite(intercepts[j]):
-            continue
-        line = intercepts[j] if slopes[j] == 0 else slopes[j] * t + intercepts[j]
-        if line > value or math.isnan(line):
-            value = line
-    return t, value

@@ -35,13 +35,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.backends.base import Backend
 from tension_opt.backends.settings import check_options, solver_options
-from tension_opt.certificate import accuracy_target
 from tension_opt.checks import as_finite, as_float_array
-from tension_opt.distribute import distribute
+from tension_opt.distribution.entry import distribute
 from tension_opt.errors import InvalidInputError
-from tension_opt.problems import TensionProblem, as_problem
+from tension_opt.problem.form import TensionProblem, as_problem
 from tension_opt.robot import CableRobot
-from tension_opt.solution import STATUS_DTYPE, Status
+from tension_opt.status import STATUS_DTYPE, Status
+from tension_opt.tolerances import accuracy_target
 
 __all__ = ["Distributor", "RealtimeResult"]
 

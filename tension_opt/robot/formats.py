@@ -1,6 +1,6 @@
 """The text side of robot files: YAML and JSON, line numbers, and file errors.
 
-:mod:`tension_opt.robot_files` holds the schema; this module turns a file's text into
+:mod:`tension_opt.robot.files` holds the schema; this module turns a file's text into
 plain data and back, finds the line of each field for error messages, and builds
 :class:`~tension_opt.errors.RobotFileError`. YAML is read with PyYAML's safe loader in
 a YAML 1.2 flavour (``1e5`` is a number) that refuses duplicate keys; floats are

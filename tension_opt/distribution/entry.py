@@ -17,9 +17,9 @@ from tension_opt.backends.registry import (
     get_backend,
 )
 from tension_opt.backends.settings import check_options
-from tension_opt.certificate import accuracy_target
 from tension_opt.checks import as_finite, as_float_array, whole_positive
-from tension_opt.chunked import (
+from tension_opt.distribution.certified import CertifiedBatch, certified_plan
+from tension_opt.distribution.chunks import (
     CERTIFIED_TASK,
     Joined,
     certified_chunks,
@@ -29,19 +29,14 @@ from tension_opt.chunked import (
     renumbered,
     slices_of,
 )
+from tension_opt.distribution.solution import TensionSolution, reusable, solution_of
 from tension_opt.errors import InvalidInputError
-from tension_opt.fused import CertifiedBatch, certified_plan
-from tension_opt.problems import Objective, StandardForm, TensionProblem, as_problem
+from tension_opt.problem.form import Objective, StandardForm, TensionProblem, as_problem
 from tension_opt.robot import CableRobot
-from tension_opt.solution import (
-    FEASIBILITY_TOL,
-    Status,
-    TensionSolution,
-    reusable,
-    status_array,
-)
+from tension_opt.status import Status, status_array
+from tension_opt.tolerances import accuracy_target
 
-__all__ = ["CHUNK_SIZE", "FEASIBILITY_TOL", "distribute", "solution_of"]
+__all__ = ["CHUNK_SIZE", "distribute"]
 
 #: Poses per chunk of a large batch (:func:`distribute`). The closed form's
 #: two-dimensional enumeration (eight cables, six degrees of freedom) holds about
@@ -71,7 +66,7 @@ def distribute(
         Platform poses (see :mod:`tension_opt.robot` for the coordinates).
     objective : str or TensionProblem
         ``"min_sum"``, ``"min_norm"``, ``"pinv"``, ``"min_max"``, ``"centered"`` or a
-        :class:`~tension_opt.problems.TensionProblem` (weights, bounds, smoothing ...).
+        :class:`~tension_opt.problem.form.TensionProblem` (weights, bounds, smoothing ...).
     backend : str or Backend
         ``"auto"`` (the fastest exact backend that supports the problem; poses it
         cannot settle, ``solver_error``, go to the next able backend of
@@ -94,8 +89,8 @@ def distribute(
         ``solution.form`` is None (the problems of every pose would outweigh the
         tensions; :meth:`TensionProblem.standard_form` rebuilds those of any poses).
         Independent poses on the compiled closed form take one compiled pass per chunk
-        (:mod:`tension_opt.fused`; sums in another order: objective and residual to
-        rounding), in tasks of :data:`~tension_opt.chunked.CERTIFIED_TASK` poses unless
+        (:mod:`tension_opt.distribution.certified`; sums in another order: objective and residual to
+        rounding), in tasks of :data:`~tension_opt.distribution.chunks.CERTIFIED_TASK` poses unless
         ``chunk_size`` is given. Invalid input in a later chunk raises there.
     out : TensionSolution, optional
         An earlier result on as many poses of the same robot and problem, whose arrays
@@ -255,19 +250,6 @@ def _solve(backend: Backend, form: StandardForm, options: dict[str, Any],
         if len(answered):
             raw.extras.setdefault("fallback", {})[name] = answered.tolist()
     return raw
-
-
-def solution_of(form: StandardForm, raw: RawResult, backend: Backend,
-                setup_time: float = 0.0) -> TensionSolution:
-    """The :class:`TensionSolution` of a backend's raw result on ``form``.
-
-    ``setup_time`` (s) is added to the backend's own (e.g. the geometry's).
-    """
-    return TensionSolution.from_form(
-        form, raw.tensions, raw.status, backend=backend.name, solver=backend.solver,
-        solver_version=backend.version, unique=raw.unique, iterations=raw.iterations,
-        infeasibility=raw.infeasibility, setup_time=raw.setup_time + setup_time,
-        solve_time=raw.solve_time, extras=raw.extras)
 
 
 def _solve_sequence(backend: Backend, problem: TensionProblem, robot: CableRobot, A: NDArray,

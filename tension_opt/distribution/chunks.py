@@ -20,10 +20,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.backends.base import MAX_ERRORS
+from tension_opt.distribution.certified import CertifiedBatch
+from tension_opt.distribution.solution import TensionSolution
 from tension_opt.errors import InvalidInputError
-from tension_opt.fused import CertifiedBatch
-from tension_opt.problems import TensionProblem
-from tension_opt.solution import TensionSolution
+from tension_opt.problem.form import TensionProblem
 
 __all__ = ["CERTIFIED_TASK", "Joined", "certified_chunks", "chunk_threads", "in_batch",
            "in_order", "merge_extras", "pose_rows", "renumbered", "slices_of"]
@@ -48,7 +48,7 @@ def certified_chunks(batch: CertifiedBatch, task: int, size: int, workers: int,
                      solve: Callable[[NDArray | slice], TensionSolution],
                      problem: TensionProblem) -> TensionSolution:
     """A batch of independent poses on the compiled closed form, in tasks of at most
-    ``task`` poses, each one compiled pass (:mod:`tension_opt.fused`), on up to
+    ``task`` poses, each one compiled pass (:mod:`tension_opt.distribution.certified`), on up to
     ``workers`` threads; ``solve`` answers the poses the kernel leaves (the path of a
     chunk, on at most ``size`` of those poses at a time)."""
     Done = list[tuple[NDArray | slice, TensionSolution]]
