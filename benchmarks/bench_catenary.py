@@ -127,7 +127,7 @@ def main(n: int = 1_000_000) -> None:
         from benchmarks.cable_cases import sweep
 
         s = sweep()
-        ours = cat.solve_forces(**s)
+        ours = cat.solve_forces(s["x"], s["z"], s["L0"], s["w"], s["EA"])
         ok_mp = 0
         for i in range(s["x"].size):
             params = tuple(float(s[key][i]) for key in ("x", "z", "L0", "w", "EA"))

@@ -32,6 +32,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable, Iterator
+from typing import Protocol, cast
 
 import numpy as np
 
@@ -49,7 +50,27 @@ __all__ = ["main"]
 CALLS = 10_000
 
 
-def percentiles(fn: Callable[[], object], calls: int) -> tuple[float, float]:
+class Call(Protocol):
+    """A call to time, made without arguments (a lambda may bind its loop's values as
+    defaults)."""
+
+    def __call__(self) -> object: ...
+
+
+class _ChunkThreads(Protocol):
+    """The module of ``distribute``, which looks its ``chunk_threads`` up at each call."""
+
+    chunk_threads: Callable[[], int]
+
+
+class _NumbaConfig(Protocol):
+    """``numba.config``, whose ``NUMBA_*`` settings numba sets from the environment at run
+    time (attributes no type checker sees)."""
+
+    NUMBA_NUM_THREADS: int
+
+
+def percentiles(fn: Call, calls: int) -> tuple[float, float]:
     """p50 and p99 (us) of the CPU time of ``calls`` calls of ``fn`` (after a warm-up)."""
     fn()
     times = np.empty(calls)
@@ -60,7 +81,7 @@ def percentiles(fn: Callable[[], object], calls: int) -> tuple[float, float]:
     return float(np.median(times)) / 1e3, float(np.percentile(times, 99)) / 1e3
 
 
-def calls_for(fn: Callable[[], object]) -> int:
+def calls_for(fn: Call) -> int:
     """:data:`CALLS`, or fewer for a call over 1 ms (about 2 s of calls, at least 20)."""
     t0 = time.perf_counter()
     fn()
@@ -68,7 +89,7 @@ def calls_for(fn: Callable[[], object]) -> int:
     return CALLS if once < 1e-3 else max(20, int(2.0 / once))
 
 
-def row(label: str, fn: Callable[[], object]) -> tuple[float, float]:
+def row(label: str, fn: Call) -> tuple[float, float]:
     """Time one call and print its line; returns (p50, p99) in us."""
     p50, p99 = percentiles(fn, calls_for(fn))
     print(f"  {label:<58s} p50 {p50:10.2f} us   p99 {p99:10.2f} us", flush=True)
@@ -204,21 +225,22 @@ def catenary_rows() -> None:
 def _chunk_threads(threads: int) -> Iterator[None]:
     """``distribute`` with its chunks on ``threads`` threads (default: numba's count)."""
     module = importlib.import_module("tension_opt.distribution.entry")
-    saved = module.chunk_threads
-    module.chunk_threads = lambda: threads
+    entry = cast(_ChunkThreads, module)
+    saved = entry.chunk_threads
+    entry.chunk_threads = lambda: threads
     try:
         yield
     finally:
-        module.chunk_threads = saved
+        entry.chunk_threads = saved
 
 
-def wall_per_item(fn: Callable[[], object], count: int, runs: int = 7) -> float:
+def wall_per_item(fn: Call, count: int, runs: int = 7) -> float:
     """Median wall time (ns) per item of ``fn`` over ``runs`` calls after an untimed
     one (see the module docstring)."""
     return alternated({"": fn}, count, runs)[""]
 
 
-def alternated(fns: dict[str, Callable[[], object]], count: int, runs: int = 7
+def alternated(fns: dict[str, Call], count: int, runs: int = 7
                ) -> dict[str, float]:
     """:func:`wall_per_item` of several calls, taken in turn (one call of each per
     round), so that a slower spell of a shared machine falls on all of them alike."""
@@ -238,6 +260,7 @@ def batch_rows(count: int) -> None:
     many cables; wall time per pose on one and on all threads."""
     import numba
 
+    config = cast(_NumbaConfig, numba.config)
     robot = presets.algae_harvester()
     rng = np.random.default_rng(0)
     low, high = robot.anchors.min(axis=0), robot.anchors.max(axis=0)
@@ -271,13 +294,13 @@ def batch_rows(count: int) -> None:
                   f"{read:10.1f} ns/pose  ({before / read:.1f}x)")
             print(f"  {label:<11s} plain call, out=earlier result, {threads} thread(s) "
                   f"{reused:10.1f} ns/pose  ({before / reused:.1f}x)")
-        for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
+        for threads in sorted({1, config.NUMBA_NUM_THREADS}):
             numba.set_num_threads(threads)
             solver(poses[:PARALLEL_MIN])  # loads the parallel kernel before timing it
             after = wall_per_item(lambda p=poses: solver(p), count)
             print(f"  {label:<11s} after: Distributor, {threads} thread(s) {after:10.1f} "
                   f"ns/pose  ({before / after:.1f}x)")
-    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    numba.set_num_threads(config.NUMBA_NUM_THREADS)
     x = rng.uniform(1.0, 60.0, count)
     zc = rng.uniform(-5.0, 10.0, count)
     T = rng.uniform(500.0, 5000.0, count)
@@ -291,13 +314,13 @@ def batch_rows(count: int) -> None:
     catenary.solve_length(x[:warm], zc[:warm], T[:warm], w, EA)
     solve_length_compiled(x[:warm], zc[:warm], T[:warm], w, 1e7)
     print(f"  before (compiled=False) {before:10.1f} ns/cable")
-    for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
+    for threads in sorted({1, config.NUMBA_NUM_THREADS}):
         numba.set_num_threads(threads)
         plain = wall_per_item(lambda: catenary.solve_length(x, zc, T, w, EA), count)
         after = wall_per_item(lambda: solve_length_compiled(x, zc, T, w, EA), count)
         print(f"  {threads} thread(s): plain call {plain:10.1f} ns/cable ({before / plain:.1f}x)"
               f"   solve_length_compiled {after:10.1f} ns/cable ({before / after:.1f}x)")
-    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    numba.set_num_threads(config.NUMBA_NUM_THREADS)
 
 
 _FIRST_CALL = """
@@ -319,7 +342,7 @@ def first_call(cold: bool) -> None:
     """First-call cost in fresh processes: with the on-disk cache, and (``cold``)
     compiling into an empty cache directory."""
     print("first call of a Distributor (fresh process): import s, first call s")
-    cases = [("numba disk cache warm", None)]
+    cases: list[tuple[str, str | None]] = [("numba disk cache warm", None)]
     if cold:
         cases.append(("empty cache (compiles)", tempfile.mkdtemp(prefix="numba-cache-")))
     for label, cache in cases:

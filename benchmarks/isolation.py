@@ -134,7 +134,7 @@ def load_compiled_kernels() -> None:
         to.distribute(robot, np.stack([home, home]), smoothed, "closed_form")
         catenary.inverse_kinematics(robot, home, model="thesis")
         # The generic backends' scaling and certificate kernels (and DAQP's C path).
-        generic = [b for b in ("scipy:highs", "qpsolvers:daqp") if b in available]
+        generic: list[str] = [b for b in ("scipy:highs", "qpsolvers:daqp") if b in available]
         for backend in generic:
             to.distribute(robot, home, "min_sum", backend)
         if "qpsolvers:daqp" in available:

@@ -11,7 +11,7 @@ import os
 import threading
 from collections.abc import Callable
 from types import ModuleType
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -130,9 +130,10 @@ def flat_arguments(*args: ArrayLike) -> tuple[tuple[int, ...], int, list[FloatAr
         One contiguous float array per argument, of ``n`` entries or of one (an
         argument with a single value, not broadcast: the kernels read entry 0).
     """
-    arrays = [a if type(a) is np.ndarray and a.dtype is _F64 else _numbers(a) for a in args]
-    if any(a is None for a in arrays):
+    found = [a if type(a) is np.ndarray and a.dtype is _F64 else _numbers(a) for a in args]
+    if any(a is None for a in found):
         return None  # not numbers: the numpy path's checks name the argument
+    arrays = cast("list[FloatArray]", found)  # no None left (a quoted type: no runtime cost)
     # Arrays of one shape and scalars (the usual call) skip numpy's broadcast_shapes,
     # whose cost is that of solving several cables.
     shape: tuple[int, ...] = ()

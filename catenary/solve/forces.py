@@ -372,12 +372,14 @@ def solve_forces_flat(
     The batch is solved in pieces of bounded memory
     (:func:`~catenary.solve.common.in_pieces`).
     """
-    return in_pieces(lambda *a: _forces_piece(*a, rtol, max_iter),  # type: ignore[return-value]
+    return in_pieces(lambda x, z, L0, w, EA: _forces_piece(x, z, L0, w, EA, rtol, max_iter),
                      [x, z, L0, w, EA])
 
 
 def _forces_piece(x: FloatArray, z: FloatArray, L0: FloatArray, w: FloatArray, EA: FloatArray,
-                  rtol: float, max_iter: int) -> tuple[FloatArray, ...]:
+                  rtol: float, max_iter: int
+                  ) -> tuple[FloatArray, FloatArray, NDArray[np.int64], NDArray[np.bool_],
+                             NDArray[np.str_]]:
     """:func:`solve_forces_flat` of one piece of the batch."""
     n = x.size
     inv_EA = axial_compliance(EA)
@@ -535,7 +537,7 @@ def _compiled_forces(x: ArrayLike, z: ArrayLike, L0: ArrayLike, w: ArrayLike,
         status, converged = all_converged(n), all_true(n)
     H, V_B, V_A, its = out[0], out[1], out[2], ints[1]
     if len(shape) != 1:
-        H, V_B, V_A, its, converged, status = (
-            a.reshape(shape) for a in (H, V_B, V_A, its, converged, status))
+        H, V_B, V_A = H.reshape(shape), V_B.reshape(shape), V_A.reshape(shape)
+        its, converged, status = its.reshape(shape), converged.reshape(shape), status.reshape(shape)
     return new_result(ForcesResult, H=H, V_A=V_A, V_B=V_B, iterations=its,
                       converged=converged, status=status)

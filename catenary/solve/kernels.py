@@ -327,7 +327,7 @@ def solve_length_cables_parallel(at_b: bool, x: NDArray, z: NDArray, T: NDArray,
 @njit(cache=True, error_model="numpy")
 def _length_block(at_b: bool, x: NDArray, z: NDArray, T: NDArray, w: NDArray,
                   EA: NDArray, rtol: float, max_iter: int, out: NDArray, ints: NDArray,
-                  start: int, stop: int) -> int:
+                  start: int | np.int64, stop: int | np.int64) -> int:
     """Cables ``start .. stop - 1`` of :func:`solve_length_cables`, in groups of
     :data:`~catenary.solve.kernels_lanes.LANES` side by side in the vector unit
     (:mod:`catenary.solve.kernels_lanes`: start, Newton, certificate); returns how many
@@ -551,7 +551,8 @@ def solve_forces_cables_parallel(x: NDArray, z: NDArray, L0: NDArray, w: NDArray
 
 @njit(cache=True, error_model="numpy")
 def _forces_entry(x: NDArray, z: NDArray, L0: NDArray, w: NDArray, EA: NDArray,
-                  rtol: float, max_iter: int, out: NDArray, ints: NDArray, k: int) -> int:
+                  rtol: float, max_iter: int, out: NDArray, ints: NDArray,
+                  k: int | np.int64) -> int:
     """Cable ``k`` of :func:`solve_forces_cables`; 1 if not :data:`CONVERGED`, else 0."""
     j = np.int64(k)  # a prange index is unsigned: mixed with 0 it would become a float
     xk, zk, Lk = x[j if x.size > 1 else 0], z[j if z.size > 1 else 0], L0[j if L0.size > 1 else 0]

@@ -313,7 +313,7 @@ def valid(x: float, z: float, third: float, w: float, EA: float, length: bool) -
             and 0.0 <= w < np.inf and EA > 0.0)
 
 
-def at(a: NDArray | float, k: int) -> float:
+def at(a: NDArray | float, k: int | np.int64) -> float:
     """Entry ``k`` of a cable argument in compiled code: an array of one entry per cable,
     an array of one entry for every cable, or a number for every cable (each compiles
     to its own code)."""

@@ -26,7 +26,7 @@ its digits). Vertical cables are solved in closed form.
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Literal, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -198,6 +198,11 @@ def _certify_length(
     return met & np.isfinite(V_A) & certify_spans(x, z, H, V, L, w, inv_EA)
 
 
+#: ``(H, V_B, V_A, L0, iterations, status)`` of flat cables (:func:`_solve_length_flat`).
+_LengthArrays = tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.int64],
+                      NDArray[np.str_]]
+
+
 def _solve_length_flat(
     end: str,
     x: FloatArray,
@@ -207,14 +212,15 @@ def _solve_length_flat(
     EA: FloatArray,
     rtol: float,
     max_iter: int,
-) -> tuple[FloatArray, ...]:
+) -> _LengthArrays:
     """:func:`solve_length` on checked flat arrays: ``(H, V_B, V_A, L0, iterations, status)``,
     in pieces of bounded memory (:func:`~catenary.solve.common.in_pieces`)."""
-    return in_pieces(lambda *a: _length_piece(end, *a, rtol, max_iter), [x, z, T, w, EA])
+    return in_pieces(lambda x, z, T, w, EA: _length_piece(end, x, z, T, w, EA, rtol, max_iter),
+                     [x, z, T, w, EA])
 
 
 def _length_piece(end: str, x: FloatArray, z: FloatArray, T: FloatArray, w: FloatArray,
-                  EA: FloatArray, rtol: float, max_iter: int) -> tuple[FloatArray, ...]:
+                  EA: FloatArray, rtol: float, max_iter: int) -> _LengthArrays:
     """:func:`_solve_length_flat` of one piece of the batch."""
     n = x.size
     inv_EA = axial_compliance(EA)
@@ -337,6 +343,9 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
     """:func:`solve_length` for ``end`` "B" or "A" through the compiled kernel, the
     cables it leaves by :func:`_solve_length_flat`; None where the numpy path must
     decide for the whole call (invalid data, shapes that do not broadcast, no cable)."""
+    shape: tuple[int, ...]
+    wf: FloatArray | float  # a number for every cable on the serial call's path
+    ef: FloatArray | float
     n = _cable_vectors(x, z, tension, w, EA)
     if 0 < n <= FEW_CABLES:
         # The usual call of a controller (a robot's cables), passed on as it is to the
@@ -353,7 +362,9 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
             fields["iterations"], fields["converged"], fields["status"] = (
                 ints[1], all_true(n), all_converged(n))
             return result
-        shape, xf, zf, tf, wf, ef = (n,), x, z, tension, w, EA
+        # As _cable_vectors found them: float64 vectors x, z, tension; floats w, EA.
+        xf, zf, tf = cast("FloatArray", x), cast("FloatArray", z), cast("FloatArray", tension)
+        shape, wf, ef = (n,), cast(float, w), cast(float, EA)
     else:
         flat = flat_arguments(x, z, tension, w, EA)
         if flat is None:
@@ -385,8 +396,9 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
         status, converged = all_converged(n), all_true(n)
     H, V_B, V_A, L0, its = out[0], out[1], out[2], out[3], ints[1]
     if len(shape) != 1:
-        H, V_B, V_A, L0, its, converged, status = (
-            a.reshape(shape) for a in (H, V_B, V_A, L0, its, converged, status))
+        H, V_B, V_A, L0 = (H.reshape(shape), V_B.reshape(shape), V_A.reshape(shape),
+                           L0.reshape(shape))
+        its, converged, status = its.reshape(shape), converged.reshape(shape), status.reshape(shape)
     return new_result(LengthResult, H=H, V_A=V_A, V_B=V_B, iterations=its,
                       converged=converged, status=status, L0=L0)
 

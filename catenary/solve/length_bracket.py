@@ -19,6 +19,8 @@ taut root. Every loop has a hard iteration cap.
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -225,7 +227,8 @@ def _scan(
     f = tens(grid.ravel(), np.repeat(idx, points)).reshape(grid.shape)
     rows = np.arange(idx.size)
     below = f <= T[idx, None]
-    found = below.any(axis=1)
+    # A row reduction of a 2-D mask: an array (the stubs also allow a scalar).
+    found = cast("NDArray[np.bool_]", below.any(axis=1))
     first = np.argmax(below, axis=1)
     best = np.argmin(np.where(np.isnan(f), np.inf, f), axis=1)
     left, right = np.maximum(best - 1, 0), np.minimum(best + 1, points - 1)

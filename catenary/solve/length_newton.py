@@ -364,7 +364,9 @@ def newton_with_second_guess(
     inv_EA: FloatArray,
     rtol: float,
     max_iter: int,
-) -> tuple[FloatArray, ...]:
+) -> tuple[
+    FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_], NDArray[np.int64]
+]:
     """Newton from the closed-form guess (for ``end="H"`` a second Newton from
     the other guess).
 
