@@ -147,7 +147,7 @@ def _imports(name: str, path: Path, files: Mapping[str, Path]) -> set[str]:
     except (OSError, SyntaxError, ValueError):
         return set(files)  # unreadable: assume it depends on everything
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
-    found = set()
+    found: set[str] = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             found.update(alias.name for alias in node.names if alias.name in files)

@@ -31,7 +31,7 @@ import warnings
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -397,7 +397,8 @@ class _Quiet:
             if self.users == 0:
                 for entry in self.entries:
                     if entry in warnings.filters:
-                        warnings.filters.remove(entry)
+                        # The module's list (its stubs type it as a read-only sequence).
+                        cast("list[Any]", warnings.filters).remove(entry)
 
 
 _QUIET = _Quiet()

@@ -106,10 +106,10 @@ class ClosedFormBackend(Backend):
 
         T, status, unique, infeas = run.tensions, run.status, run.unique, run.infeasibility
         info, codes = np.empty((base.N, 2)), np.zeros(base.N, dtype=np.int64)
-        arrays = [np.ascontiguousarray(x, dtype=float)
-                  for x in (base.A, base.b, base.lb, base.ub, base.q, base.c)]
+        A, b, lb, ub, q, c = (np.ascontiguousarray(x, dtype=float)
+                              for x in (base.A, base.b, base.lb, base.ub, base.q, base.c))
         stop = closed_form.solve_forms_sequence(
-            *arrays, float(smoothing), np.ascontiguousarray(rate, dtype=float),
+            A, b, lb, ub, q, c, float(smoothing), np.ascontiguousarray(rate, dtype=float),
             FEASIBILITY_TOL, last, bool(np.isfinite(last).all()), T, info, codes, start)
         done = slice(start, stop)
         status[done] = _RAW_STATUS[codes[done]]

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -294,7 +294,7 @@ class CvxpyBackend(Backend):
         for start in range(0, N, K):
             # The last chunk is padded with its own last pose to keep one compiled size.
             rows = np.minimum(np.arange(start, start + K), N - 1)
-            again = range(start, min(start + K, N))
+            again: Sequence[int] = range(start, min(start + K, N))
             if K > 1:
                 compiled, dt = self._compiled(call, call.lb_fin[rows], call.ub_fin[rows])
                 compile_time += dt

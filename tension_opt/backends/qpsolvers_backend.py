@@ -208,8 +208,9 @@ class QpsolversBackend(Backend):
                 return start
             sense = np.zeros(m + n, dtype=c_int)
             sense[m:] = 5  # the equations
+            A, b, lb, ub, q, c = arrays
             stop = int(dense_qp.solve_sequence(
-                *arrays, float(smoothing), rate, tol, target, last,
+                A, b, lb, ub, q, c, float(smoothing), rate, tol, target, last,
                 bool(np.isfinite(last).all()), run.tensions, counts, start, floats, sense,
                 structs))
         else:

@@ -96,7 +96,7 @@ class Multipliers:
         """The multipliers of the poses ``index``."""
         return Multipliers(self.y[index], self.mu[index], self.z[index])
 
-    def put(self, index: NDArray, other: Multipliers) -> None:
+    def put(self, index: NDArray | slice, other: Multipliers) -> None:
         """Write ``other`` (the poses ``index``) into these multipliers."""
         self.y[index], self.mu[index], self.z[index] = other.y, other.mu, other.z
 
@@ -211,9 +211,9 @@ def estimate_multipliers(batch: ScaledBatch, x: NDArray) -> Multipliers:
 
     out, idx, sub = _solved_poses(batch, x)
     if sub is not None:
-        arrays = [frozen(a) for a in (sub.P, sub.c, sub.Aeq, sub.G, sub.h, sub.lb, sub.ub,
-                                      x[idx])]
-        out.put(idx, Multipliers(*batch_estimate(*arrays, RIDGE)))
+        P, c, Aeq, G, h, lb, ub, xs = (frozen(a) for a in (sub.P, sub.c, sub.Aeq, sub.G, sub.h,
+                                                            sub.lb, sub.ub, x[idx]))
+        out.put(idx, Multipliers(*batch_estimate(P, c, Aeq, G, h, lb, ub, xs, RIDGE)))
     return out
 
 

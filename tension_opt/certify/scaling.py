@@ -255,8 +255,8 @@ def compiled_scaling(form: StandardForm) -> Scaling:
     vmax = 0.0
     if form.minmax is not None:
         vmax = float(np.abs(form.minmax).max(initial=0.0)) or 1.0
-    arrays = [frozen(a) for a in (form.A, form.b, form.lb, form.ub, form.q, form.c)]
-    tension, rows, top, quadratic = batch_scaling(*arrays, vmax, UB_SHARE, ROW_FLOOR)
+    A, b, lb, ub, q, c = (frozen(a) for a in (form.A, form.b, form.lb, form.ub, form.q, form.c))
+    tension, rows, top, quadratic = batch_scaling(A, b, lb, ub, q, c, vmax, UB_SHARE, ROW_FLOOR)
     return Scaling(tension=tension, rows=rows, top=top, quadratic=quadratic,
                    vmax=vmax or 1.0)
 

@@ -147,9 +147,11 @@ class CertifiedBatch:
 
         wrench = self.wrench if len(self.wrench) == 1 else self.wrench[sl]
         mult = self.multipliers
+        objective, residual, violation, infeasibility, primal, dual, gap = (
+            self.measures[name][sl] for name in _MEASURES)
         left = certified_poses(self.plan.data, self.poses[sl], wrench, self.tensions[sl],
-                               self.codes[sl], self.unique[sl],
-                               *(self.measures[name][sl] for name in _MEASURES),
+                               self.codes[sl], self.unique[sl], objective, residual,
+                               violation, infeasibility, primal, dual, gap,
                                mult.y[sl], mult.mu[sl], mult.z[sl])
         codes = self.codes[sl]
         if self.status is not None:
@@ -174,7 +176,7 @@ class CertifiedBatch:
         elif iterations is not None:
             iterations[index] = sol.iterations
         assert sol.multipliers is not None  # from_form always certifies
-        self.multipliers.put(index, sol.multipliers)  # type: ignore[arg-type]
+        self.multipliers.put(index, sol.multipliers)
 
     def solution(self, problem: TensionProblem, extras: dict[str, Any],
                  setup_time: float, solve_time: float) -> TensionSolution:

@@ -116,15 +116,15 @@ def chunk_threads() -> int:
     """Threads that run the chunks of a large closed-form batch side by side: numba's
     configured thread count (``NUMBA_NUM_THREADS``, one per core by default), read
     without starting its threading layer."""
-    import numba
+    from tension_opt.kernels.launch import configured_threads
 
-    return max(1, int(numba.config.NUMBA_NUM_THREADS))
+    return max(1, int(configured_threads()))
 
 
 def pose_rows(name: str, value: ArrayLike | None, N: int, k: int, scalar: bool = True
-              ) -> Callable[[slice], Any] | None:
+              ) -> Callable[[slice | NDArray], Any] | None:
     """How to cut ``value`` (one row per pose, or one for every pose) to chunks of poses:
-    a function of the chunk's slice, None for None.
+    a function of the chunk's poses (its slice, or their indices), None for None.
 
     Raises
     ------

@@ -163,8 +163,8 @@ class Distributor:
         problem = self.problem
         if self.robot.kind not in ("point3", "planar_point2", "planar3", "spatial6"):
             return False
-        return not any(np.ndim(x) > 1 for x in (problem.t_min, problem.t_max,
-                                                problem.reference))
+        return not any(x is not None and np.ndim(x) > 1
+                       for x in (problem.t_min, problem.t_max, problem.reference))
 
     def _closed_form_path(self) -> bool:
         """Whether the compiled closed form solves this problem exactly as the numpy
@@ -364,7 +364,7 @@ class Distributor:
         N, m = len(p), self.robot.m
         has_prev = previous is not None
         prev = (np.ascontiguousarray(np.broadcast_to(as_finite("previous", previous), (N, m)))
-                if has_prev else self._no_prev[None, :])
+                if previous is not None else self._no_prev[None, :])
         T, info, codes = np.empty((N, m)), np.empty((N, 3)), np.empty(N, dtype=np.int64)
         from tension_opt.kernels import launch
 
@@ -391,7 +391,7 @@ class Distributor:
             T[redo], status[redo] = sol.tensions, sol.status
             info[redo] = np.column_stack([sol.unique, sol.residual, sol.infeasibility])
             done[redo] = False
-            if self.problem.is_sequential and np.ndim(previous) < 2:
+            if self.problem.is_sequential and (previous is None or np.ndim(previous) < 2):
                 ok = np.flatnonzero(sol.status == Status.OPTIMAL)
                 if len(ok):
                     self._local.last = sol.tensions[ok[-1]].copy()
@@ -408,9 +408,11 @@ class Distributor:
         fallback: dict[int, Status] = {}
         work = np.empty(self._work_size)
         poses = np.ascontiguousarray(p)
+        data = self._data
+        assert data is not None  # the compiled path has its data (see _many)
         k = 0
         while k < N:
-            k = self._kernels.solve_sequence(self._data, poses, w, last,
+            k = self._kernels.solve_sequence(data, poses, w, last,
                                              bool(np.isfinite(last).all()), T, info, codes,
                                              k, work)
             if k < N:

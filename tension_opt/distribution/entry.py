@@ -336,7 +336,8 @@ def _compiled_sequence(backend: Backend, problem: TensionProblem, unsmoothed: Te
     if previous is not None and not (np.shape(previous) == (robot.m,)
                                      and np.isfinite(previous).all()):
         return None
-    if any(np.ndim(x) > 1 for x in (problem.t_min, problem.t_max, problem.reference)):
+    if any(x is not None and np.ndim(x) > 1
+           for x in (problem.t_min, problem.t_max, problem.reference)):
         return None  # rows per pose: each pose's own form
     # The loop takes the poses the backend takes once smoothed (a QP-only solver the
     # smoothed ones; the unsmoothed ones go to the pose-by-pose path, which chooses).

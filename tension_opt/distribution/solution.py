@@ -145,7 +145,10 @@ class TensionSolution:
     """
 
     tensions: NDArray
-    status: NDArray = _STATUS  # type: ignore[assignment]
+    if TYPE_CHECKING:  # a field without a default, as the descriptor makes it at run time
+        status: NDArray
+    else:
+        status: NDArray = _STATUS
     unique: NDArray
     objective: NDArray
     residual: NDArray
@@ -257,7 +260,9 @@ class TensionSolution:
     def certified(self) -> NDArray:
         """Poses whose certificate meets :attr:`accuracy`, shape (N,) (whatever the status
         says; ``OPTIMAL`` implies it)."""
-        assert self.primal_residual is not None  # filled in by __post_init__
+        # filled in by __post_init__
+        assert (self.primal_residual is not None and self.dual_residual is not None
+                and self.duality_gap is not None)
         t = self.accuracy
         return np.asarray((self.primal_residual <= t) & (self.dual_residual <= t)
                           & (self.duality_gap <= t), dtype=bool)
@@ -314,14 +319,14 @@ class TensionSolution:
             then left as it was).
         """
         theirs, ours = per_pose_arrays(out), per_pose_arrays(self)
-        shared = [name for name, mine in ours.items()
+        shared = [(name, mine) for name, mine in ours.items()
                   if mine is not None and theirs.get(name) is not None]
-        for name in shared:  # every array checked before any is written
-            reused_array(out, name, ours[name].shape, None)
-        held = {}
+        for name, array in shared:  # every array checked before any is written
+            reused_array(out, name, array.shape, None)
+        held: dict[str, Any] = {}  # the fields' values by name (arrays, or None)
         for name, mine in ours.items():
-            if name in shared:
-                target = theirs[name]
+            target = theirs.get(name)
+            if mine is not None and target is not None:  # one of the shared arrays
                 if target is not mine:
                     target[...] = mine
                 mine = target

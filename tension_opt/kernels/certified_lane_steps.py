@@ -16,6 +16,7 @@ back.
 from __future__ import annotations
 
 import math
+from typing import overload
 
 import numpy as np
 from numba import njit
@@ -36,7 +37,7 @@ __all__ = ["FIELDS", "F_A", "F_AEQ", "F_B0", "F_B1", "F_B2", "F_BEQ", "F_CODE", 
 LANES = 16
 #: Code of a pose the caller solves pose by pose.
 REDO = 9
-_HUGE = np.finfo(np.float64).max
+_HUGE: float = np.finfo(np.float64).max
 
 # Fields of the work array (see the module docstring).
 (F_P0, F_P1, F_P2, F_W0, F_W1, F_W2, F_B0, F_B1, F_B2, F_GOOD, F_INFEASIBLE, F_UNIQUE,
@@ -57,6 +58,11 @@ F_STATION = F_Z + 4  # stationarity of each scaled variable (4)
 FIELDS = F_STATION + 4
 
 
+# fmin and fmax of two ints are an int (a pose index), of floats a float.
+@overload
+def fmax(a: int, b: int) -> int: ...
+@overload
+def fmax(a: float, b: float) -> float: ...
 @njit(cache=True, inline="always")
 def fmax(a: float, b: float) -> float:
     """numba's ``max(a, b)`` of two floats, written out: the builtin is a call that
@@ -64,6 +70,10 @@ def fmax(a: float, b: float) -> float:
     return b if b > a else a
 
 
+@overload
+def fmin(a: int, b: int) -> int: ...
+@overload
+def fmin(a: float, b: float) -> float: ...
 @njit(cache=True, inline="always")
 def fmin(a: float, b: float) -> float:
     """numba's ``min(a, b)`` of two floats, written out (see :func:`fmax`)."""

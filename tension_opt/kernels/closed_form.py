@@ -312,8 +312,8 @@ def _solve_viewed(data: NDArray, anchors: NDArray, attachments: NDArray, terms: 
 
 
 @njit(cache=True, error_model="numpy")
-def _batch_chunk(j: int, data: NDArray, poses: NDArray, wrenches: NDArray, prev: NDArray,
-                 has_prev: bool, T: NDArray, info: NDArray, codes: NDArray) -> None:
+def _batch_chunk(j: int | np.int64, data: NDArray, poses: NDArray, wrenches: NDArray,
+                 prev: NDArray, has_prev: bool, T: NDArray, info: NDArray, codes: NDArray) -> None:
     """Chunk ``j`` (:data:`CHUNK` poses) of :func:`solve_batch`, with its own work space."""
     N, m, n = poses.shape[0], int(data[1]), int(data[2])
     work = np.empty(work_size(m, n))
@@ -397,7 +397,7 @@ def plain(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArr
 
 @njit(cache=True, error_model="numpy", inline="always")
 def point4(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
-           quadratic: bool, T: NDArray, work: NDArray) -> tuple[bool, bool, float]:
+           quadratic: bool, T: NDArray, work: NDArray) -> tuple[bool, bool, bool]:
     """Four cables, three equations (LP or QP): the numpy path's shortcut
     (``ClosedFormBackend._solve_point4``), tensions written to ``T``; returns
     ``(settled, unique, infeasible)``. A particular solution comes from cables 1-3 by
@@ -498,9 +498,9 @@ def form_pose(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: N
 
 
 @njit(cache=True, error_model="numpy")
-def _forms_chunk(j: int, A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, q: NDArray,
-                 c: NDArray, v: NDArray, minmax: bool, quadratic: bool, tol_factor: float,
-                 T: NDArray, info: NDArray, codes: NDArray) -> None:
+def _forms_chunk(j: int | np.int64, A: NDArray, b: NDArray, lb: NDArray, ub: NDArray,
+                 q: NDArray, c: NDArray, v: NDArray, minmax: bool, quadratic: bool,
+                 tol_factor: float, T: NDArray, info: NDArray, codes: NDArray) -> None:
     """Poses ``j * CHUNK ...`` of :func:`solve_forms`, with one work space."""
     N, n, m = A.shape
     work = np.empty(work_size(m, n))

@@ -22,9 +22,10 @@ from __future__ import annotations
 import os
 import threading
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol, cast
 
-__all__ = ["LOCK", "PARALLEL_MIN", "entry_point", "parallel_allowed", "run"]
+__all__ = ["LOCK", "PARALLEL_MIN", "configured_threads", "entry_point", "parallel_allowed",
+           "run"]
 
 #: Poses from which a batch runs in parallel. Each launch waits for every worker thread
 #: to be scheduled, which on a busy machine can take a scheduler quantum (milliseconds):
@@ -45,6 +46,21 @@ def _after_fork_in_child() -> None:
 os.register_at_fork(after_in_child=_after_fork_in_child)
 
 
+class _NumbaConfig(Protocol):
+    """``numba.config``, whose ``NUMBA_*`` settings numba sets from the environment when
+    it is imported (attributes no type checker sees)."""
+
+    NUMBA_NUM_THREADS: int
+
+
+def configured_threads() -> int:
+    """numba's configured thread count (``NUMBA_NUM_THREADS``, one per core by default),
+    read without starting its threading layer (``numba.get_num_threads()`` would)."""
+    import numba
+
+    return cast(_NumbaConfig, numba.config).NUMBA_NUM_THREADS
+
+
 def parallel_allowed() -> bool:
     """Whether this process may launch parallel kernels: numba has more than one
     thread, and the process is no forked child of a parent whose OpenMP layer runs."""
@@ -53,7 +69,7 @@ def parallel_allowed() -> bool:
         import numba
 
         # The configured count: asking numba.get_num_threads() would start the layer.
-        allowed = numba.config.NUMBA_NUM_THREADS > 1
+        allowed = configured_threads() > 1
         if allowed and _state["forked"]:
             try:
                 layer = numba.threading_layer()  # the parent's, if it launched any

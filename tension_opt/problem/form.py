@@ -43,7 +43,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -56,6 +56,16 @@ from tension_opt.robot import CableRobot
 
 __all__ = [ "Objective", "StandardForm", "TensionProblem",
            "as_problem"]
+
+if TYPE_CHECKING:
+
+    class _ObjectiveField:
+        """How a type checker sees :attr:`TensionProblem.objective`: given as a name or
+        an :class:`Objective`, read as the Objective that ``__post_init__`` made of it."""
+
+        def __get__(self, obj: object, owner: type | None = None) -> Objective: ...
+
+        def __set__(self, obj: object, value: Objective | str) -> None: ...
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,7 +92,10 @@ class TensionProblem:
         Break non-unique optima (LP objectives) to the minimum 2-norm among the optima.
     """
 
-    objective: Objective | str = "min_sum"
+    if TYPE_CHECKING:
+        objective: _ObjectiveField = _ObjectiveField()
+    else:
+        objective: Objective | str = "min_sum"
     weights: NDArray | None = None
     reference: NDArray | None = None
     t_min: NDArray | float | None = None

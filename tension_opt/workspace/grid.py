@@ -169,8 +169,8 @@ def workspace_grid(lower: ArrayLike, upper: ArrayLike, spacing: ArrayLike | None
             raise InvalidInputError("a fixed coordinate (lower == upper) takes count 1")
     total = float(np.prod(k_float))
     if not total <= MAX_GRID_POINTS:
-        shape = "x".join(f"{k:.0f}" for k in k_float)
-        raise InvalidInputError(f"the grid would have {total:.3g} points ({shape}), more than "
+        sizes = "x".join(f"{k:.0f}" for k in k_float)
+        raise InvalidInputError(f"the grid would have {total:.3g} points ({sizes}), more than "
                                 f"{MAX_GRID_POINTS:.0e}; use a coarser spacing, fewer counts "
                                 f"or sample_poses")
     axes: list[NDArray] = []

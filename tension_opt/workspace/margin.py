@@ -569,7 +569,8 @@ def capacity_margin(robot: CableRobot, poses: ArrayLike, wrench: ArrayLike | Non
     for start in range(0, N, MARGIN_CHUNK):
         chunk = slice(start, start + MARGIN_CHUNK)
         try:
-            margin[chunk] = pose_margins(robot, p[chunk], w[chunk] if per_pose else w,
+            margin[chunk] = pose_margins(robot, p[chunk],
+                                         w[chunk] if per_pose and w is not None else w,
                                          backend, options)[0]
         except InvalidInputError as error:
             raise InvalidInputError(f"poses[{start}:{min(N, start + MARGIN_CHUNK)}]: "
