@@ -4,8 +4,8 @@ compiled real-time path: ``python -m benchmarks.bench_latency``.
 Each row times the numpy reference of a call ("before": the plain call as it was
 before the compiled path, kept as ``compiled=False``), the compiled path
 (:class:`tension_opt.Distributor`, the plain calls on :mod:`tension_opt.kernels` and
-:mod:`catenary.solve.kernels`, :class:`catenary.realtime_ik.ThesisIK`,
-:class:`catenary.realtime_coupled.CoupledIK`; "after") and raw baselines (the DAQP call on
+:mod:`catenary.solve.kernels`, :class:`catenary.thesis_ik.ThesisIK`,
+:class:`catenary.coupled_ik.CoupledIK`; "after") and raw baselines (the DAQP call on
 the same data, plain numpy arithmetic), with p50 and p99 over many calls. Single calls
 are timed in CPU time of the calling thread (``time.thread_time_ns``), so that other
 load on a shared machine counts less; the timer's own cost (about 1 us: the clock is a
@@ -38,7 +38,7 @@ import numpy as np
 
 import catenary
 import tension_opt as to
-from catenary.realtime import PARALLEL_FROM, solve_forces_compiled, solve_length_compiled
+from catenary.solve_compiled import PARALLEL_FROM, solve_forces_compiled, solve_length_compiled
 from tension_opt import presets
 from tension_opt.backends.closed_form import ClosedFormBackend
 from tension_opt.distribution.entry import chunk_threads
@@ -176,7 +176,7 @@ def catenary_rows() -> None:
                  lambda: catenary.solve_length(planes_x, z, T, w, EA, compiled=False))
     after = row("after: catenary.solve_length (compiled)",
                 lambda: catenary.solve_length(planes_x, z, T, w, EA))
-    row("compiled, no result object: catenary.realtime.solve_length_compiled",
+    row("compiled, no result object: catenary.solve_compiled.solve_length_compiled",
         lambda: solve_length_compiled(planes_x, z, T, w, EA))
     ratio(before, after)
     from catenary.solve import kernels
@@ -192,14 +192,14 @@ def catenary_rows() -> None:
                  lambda: catenary.solve_forces(planes_x, z, L0, w, EA, compiled=False))
     after = row("after: catenary.solve_forces (compiled)",
                 lambda: catenary.solve_forces(planes_x, z, L0, w, EA))
-    row("compiled, no result object: catenary.realtime.solve_forces_compiled",
+    row("compiled, no result object: catenary.solve_compiled.solve_forces_compiled",
         lambda: solve_forces_compiled(planes_x, z, L0, w, EA))
     ratio(before, after)
     out4 = np.zeros((4, 4))
     row("kernel alone: catenary.kernels.solve_forces_batch (serial)", lambda: kernels.
         solve_forces_batch(planes_x, z, L0, ws, inv, 1e-9, 30, out4, codes, False))
     pose = robot.default_home()
-    from catenary.realtime_ik import ThesisIK
+    from catenary.thesis_ik import ThesisIK
 
     print("catenary.inverse_kinematics(model='thesis'), one pose")
     before = row("before: catenary.inverse_kinematics(compiled=False)",
@@ -208,15 +208,15 @@ def catenary_rows() -> None:
     row("plain call: catenary.inverse_kinematics (compiled)",
         lambda: catenary.inverse_kinematics(robot, pose, model="thesis"))
     ik = ThesisIK(robot)
-    after = row("after: catenary.realtime_ik.ThesisIK", lambda: ik(pose))
+    after = row("after: catenary.thesis_ik.ThesisIK", lambda: ik(pose))
     ratio(before, after)
-    from catenary.realtime_coupled import CoupledIK
+    from catenary.coupled_ik import CoupledIK
 
     print("catenary.inverse_kinematics(model='coupled'), one pose")
     before = row("before: catenary.inverse_kinematics",
                  lambda: catenary.inverse_kinematics(robot, pose, model="coupled"))
     coupled = CoupledIK(robot)
-    after = row("after: catenary.realtime_coupled.CoupledIK (warm stream)",
+    after = row("after: catenary.coupled_ik.CoupledIK (warm stream)",
                 lambda: coupled(pose))
     ratio(before, after)
 

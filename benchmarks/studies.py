@@ -63,8 +63,9 @@ from benchmarks.study_points import (
 )
 from catenary.materials import CableMaterial
 from tension_opt import CableRobot, distribute, presets
+from tension_opt.distribution.chunks import chunk_slices
 from tension_opt.errors import InvalidInputError
-from tension_opt.workspace.executors import Executor, chunk_slices, run_chunks
+from tension_opt.workspace.executors import Executor, run_chunks
 
 __all__ = [
     "COLUMNS",

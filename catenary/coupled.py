@@ -266,7 +266,7 @@ class CoupledSolver:
         curv = np.where(np.isfinite(curv), np.maximum(curv, 0.0), 0.0)
         # Curvature too small to change the objective at the scale of the tensions is
         # dropped (keeps LPs linear where the cables are nearly straight).
-        scale = form.scale()[:, None]
+        scale = form.typical_tension()[:, None]
         size = (np.abs(form.c) * scale + form.q * scale**2).max(axis=1, keepdims=True)
         return np.where(curv * scale**2 > 1e-12 * size, curv, 0.0)
 
@@ -306,7 +306,7 @@ def _multipliers(form: StandardForm, T: FloatArray) -> FloatArray:
     min-max objective): ``q T + c + A^T lam = 0`` on those cables, in the least-squares
     sense (minimum norm when they are fewer than the rows).
     """
-    scale = form.scale()[:, None]
+    scale = form.typical_tension()[:, None]
     tol = 1e-7 * scale
     free = ~((T <= form.lb + tol) | (T >= form.ub - tol))
     if form.minmax is not None:

@@ -19,7 +19,7 @@ Every cable hangs as an elastic catenary in its vertical plane
 Compiled path
 -------------
 The thesis model solves one pose (n,) by compiled kernels
-(:mod:`catenary.compiled_thesis`, built once per robot and problem and cached) where
+(:mod:`catenary.thesis_ik_kernels`, built once per robot and problem and cached) where
 they apply: backend ``"auto"`` or ``"closed_form"``, a non-sequential objective, an
 optimal straight-line distribution, every catenary settled by the kernel. Other poses
 take the numpy path, whose catenaries :func:`catenary.solve_length` solves with its own
@@ -43,7 +43,6 @@ from tension_opt.distribution.solution import TensionSolution
 from tension_opt.problem.form import Objective, as_problem
 from tension_opt.status import Status, status_array
 
-from .compiled_thesis import CompiledThesis, thesis_solver
 from .coupled import CatenarySolution, CoupledSolver
 from .errors import InvalidCableError
 from .geometry import (
@@ -58,6 +57,7 @@ from .margin import coupled_margin
 from .solve import solve_length
 from .solve.common import check_settings, float_argument
 from .solve.compiled import new_result
+from .thesis_ik_kernels import CompiledThesis, thesis_solver
 
 __all__ = ["CERT_TOL", "InverseKinematicsResult", "coupled_certificate", "inverse_kinematics",
            "thesis_result"]

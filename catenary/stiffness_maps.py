@@ -18,8 +18,9 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt import CableRobot
+from tension_opt.distribution.chunks import chunk_slices
 from tension_opt.workspace import Grid
-from tension_opt.workspace.executors import Executor, chunk_slices, merge_chunks, run_chunks
+from tension_opt.workspace.executors import Executor, merge_chunks, run_chunks
 
 from .errors import InvalidCableError
 from .response import deflection_from, mass_matrix, modes_from

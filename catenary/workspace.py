@@ -42,6 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt import CableRobot
 from tension_opt.backends import Backend
+from tension_opt.distribution.chunks import chunk_slices
 from tension_opt.status import Status, status_array
 from tension_opt.workspace import (
     FEAS_TOL,
@@ -50,7 +51,7 @@ from tension_opt.workspace import (
     on_drawing_point,
     prepare,
 )
-from tension_opt.workspace.executors import Executor, chunk_slices, merge_chunks, run_chunks
+from tension_opt.workspace.executors import Executor, merge_chunks, run_chunks
 from tension_opt.workspace.margin import pose_margins
 
 from .geometry import cable_data

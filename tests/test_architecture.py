@@ -6,8 +6,9 @@ import ast
 import shutil
 import subprocess
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from types import FrameType
 
 import pytest
 
@@ -138,3 +139,69 @@ def _strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
         if v not in index:
             visit(v)
     return found
+
+
+def test_mypy_finds_no_error() -> None:
+    # The configuration is pyproject.toml's; no module silences its own errors.
+    command = shutil.which("mypy")
+    if command is None:
+        pytest.skip("mypy is not installed (pip install -e '.[dev]')")
+    done = subprocess.run([command, "tension_opt", "catenary", "benchmarks"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stdout[-4000:] + done.stderr[-2000:]
+
+
+#: Calls into these modules are not steps of the flow (errors, statuses, checks, the
+#: numbers the layers share, the kernels' array helpers).
+GROUND = {"errors", "status", "checks", "kinds", "tolerances", "kernels.arrays",
+          "kernels.launch"}
+
+
+def _modules_visited(call: Callable[[], object]) -> list[str]:
+    """The tension_opt modules one call runs through, in order, each time the flow moves
+    from one module to another by a call (the ground left out)."""
+    trail: list[str] = []
+
+    def profile(frame: FrameType, event: str, arg: object) -> None:
+        if event != "call":
+            return
+        module = frame.f_globals.get("__name__", "")
+        if not module.startswith("tension_opt."):
+            return
+        caller = frame.f_back
+        while caller is not None and not caller.f_globals.get(
+                "__name__", "").startswith("tension_opt"):
+            caller = caller.f_back
+        step = module.removeprefix("tension_opt.")
+        if (caller is None or caller.f_globals["__name__"] != module) and step not in GROUND \
+                and (not trail or trail[-1] != step):
+            trail.append(step)
+
+    sys.setprofile(profile)
+    try:
+        call()
+    finally:
+        sys.setprofile(None)
+    return trail
+
+
+@pytest.mark.parametrize("objective, backend", [("min_sum", "auto"),
+                                                ("min_norm", "qpsolvers:daqp")])
+def test_one_distribute_call_comes_back_to_few_modules(objective: str, backend: str) -> None:
+    """A call of distribute on a batch goes down the flow: it comes back to a module it
+    has left at most 20 times (a reader follows it through one file per step)."""
+    import numpy as np
+
+    import tension_opt as to
+
+    if backend != "auto" and backend not in to.available_backends():
+        pytest.skip(f"{backend} is not installed")
+    robot = to.presets.algae_harvester()
+    rng = np.random.default_rng(0)
+    poses = np.column_stack([rng.uniform(-30, 30, 200), rng.uniform(-20, 20, 200),
+                             np.full(200, 0.5)])
+    to.distribute(robot, poses, objective, backend)  # compiled and cached first
+    trail = _modules_visited(lambda: to.distribute(robot, poses, objective, backend))
+    again = len(trail) - len(set(trail))
+    assert trail[0] == "distribution.entry" and trail.count("distribution.solution") == 1
+    assert again <= 20, " -> ".join(trail)

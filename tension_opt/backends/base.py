@@ -13,9 +13,10 @@ Contract of every backend (the rest of the package relies on it):
   finite tensions whose certificate (:mod:`tension_opt.certify.certificate`: primal residual,
   dual residual and duality gap of the scaled problem, from the solver's multipliers
   where it gives them) meets the accuracy target of the call; a solver's "optimal"
-  that misses it is ``INACCURATE``. The multipliers and the target go to
-  ``extras["multipliers"]`` and ``extras["accuracy_target"]`` (a solver asked for more
-  than it can reach says so in ``extras["accuracy"]``). A solver's exception on one
+  that misses it is ``INACCURATE``. The certificate, its multipliers and the target
+  are the typed fields :attr:`RawResult.certificate`, :attr:`RawResult.multipliers`
+  and :attr:`RawResult.accuracy_target` (a solver asked for more than it can reach
+  says so in ``extras["accuracy"]``). A solver's exception on one
   pose becomes that pose's ``SOLVER_ERROR``, its message kept in ``extras["errors"]``.
 - **Options.** ``solver_options`` a solver rejects (an unknown name, a value out of
   range) raise :class:`~tension_opt.errors.SolverError` carrying the solver's message
@@ -39,7 +40,7 @@ from numpy.typing import NDArray
 from tension_opt.backends.feasibility import settle_failures
 from tension_opt.backends.settings import unreachable
 from tension_opt.backends.tiebreak import face_min_norm, lp_optimum_is_unique, optimal_face
-from tension_opt.certify.certificate import Multipliers, certify
+from tension_opt.certify.certificate import Certificate, Multipliers, certify
 from tension_opt.certify.scaling import scaled_batch
 from tension_opt.errors import SolverError
 from tension_opt.problem.form import StandardForm
@@ -56,6 +57,11 @@ class RawResult:
 
     ``multipliers`` are the solver's, of the scaled problem
     (:func:`tension_opt.certify.scaling.scaled_batch`), NaN rows where it gave none.
+    ``accuracy_target`` is the target the call was judged at, and ``certificate`` the
+    measures of ``tensions`` as they stand (set by :meth:`Backend.solve`, kept up to
+    date by whatever changes the tensions afterwards, else None):
+    :meth:`~tension_opt.distribution.solution.TensionSolution.from_form` takes them
+    instead of measuring again.
     """
 
     tensions: NDArray
@@ -67,6 +73,8 @@ class RawResult:
     infeasibility: NDArray | None = None
     extras: dict[str, Any] = field(default_factory=dict)
     multipliers: Multipliers | None = None
+    accuracy_target: float | None = None
+    certificate: Certificate | None = None
 
 
 @dataclass
@@ -126,15 +134,15 @@ class Backend:
 
     def _certified(self, form: StandardForm, raw: RawResult, target: float) -> RawResult:
         """``raw`` with its certificate: ``OPTIMAL`` poses that miss ``target`` become
-        ``INACCURATE``; the multipliers (completed where the solver gave none) and the
-        target go to the extras."""
+        ``INACCURATE``; the certificate, its multipliers (completed where the solver
+        gave none) and the target go to their fields."""
         batch = scaled_batch(form)
         certificate = certify(batch, batch.lift(raw.tensions), raw.multipliers, target)
         raw.status = np.asarray(raw.status, dtype=STATUS_DTYPE)
         raw.status[(raw.status == Status.OPTIMAL) & ~certificate.certified] = Status.INACCURATE
         raw.multipliers = certificate.multipliers
-        raw.extras["multipliers"] = certificate.multipliers
-        raw.extras["accuracy_target"] = target
+        raw.certificate = certificate
+        raw.accuracy_target = target
         note = None if self.exact else unreachable(self.solver, target)
         if note is not None:
             raw.extras["accuracy"] = note
@@ -194,10 +202,10 @@ class Backend:
             if first.iterations is not None and second.iterations is not None:
                 first.iterations[tied] += second.iterations
         batch = scaled_batch(sub)
-        assert first.multipliers is not None
+        assert first.multipliers is not None and first.certificate is not None
         again = certify(batch, batch.lift(first.tensions[tied]),
                         first.multipliers.subset(tied), target)
-        first.multipliers.put(tied, again.multipliers)
+        first.certificate.put(tied, again)  # its multipliers are first.multipliers
         missed = tied[(first.status[tied] == Status.OPTIMAL) & ~again.certified]
         first.status[missed] = Status.INACCURATE
         first.solve_time += time.perf_counter() - t0 - setup

@@ -91,7 +91,7 @@ class ClosedFormBackend(Backend):
             T, status, unique, infeas = self._solve_numpy(form)
         elapsed = time.perf_counter() - t0
         return RawResult(T, status, np.zeros(form.N, dtype=int), 0.0, elapsed, unique, infeas,
-                         extras={"accuracy_target": target})
+                         accuracy_target=target)
 
     def runs_sequences(self, options: Mapping[str, Any], smoothed: StandardForm) -> bool:
         return self.compiled
@@ -162,7 +162,7 @@ class ClosedFormBackend(Backend):
         if singular.any():
             return self._split_singular(form, singular)
         T0, Z = pinv_and_null(form.A, form.b, svd)
-        scale = form.scale()
+        scale = form.typical_tension()
         if Z.shape[2] == 1:
             return self._solve_1d(form, T0, Z[..., 0], scale)
         return self._solve_2d(form, T0, Z, scale)

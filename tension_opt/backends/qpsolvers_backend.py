@@ -222,7 +222,6 @@ class QpsolversBackend(Backend):
             run.status[done], run.unique[done] = Status.OPTIMAL, True
             if run.iterations is not None:
                 run.iterations[done] = counts[done]
-            run.extras["accuracy_target"] = target  # as each pose's solve reports it
         return stop
 
     def _generic_sequence(self, arrays: list[NDArray], smoothing: float, rate: NDArray,

@@ -6,8 +6,13 @@ Each backend family is a module listed in :data:`FAMILIES`; it defines
 a missing optional solver costs nothing until named. A new backend family is one
 module and one line here.
 
-Backend choice (``"auto"``, or the first installed backend that can take a given
-problem) is :func:`choose_backend`; every caller goes through it.
+Which backend solves a batch is decided here and nowhere else: :func:`choose_backend`
+(a named backend, checked, or for ``"auto"`` the first installed backend of an order
+that can take the problem), :func:`route` (that choice for a call of
+:func:`~tension_opt.distribute`, with the automatic fallback and the hand-over of a
+form a named backend cannot take) and :func:`solve_routed` (the solve, with the poses
+the backend leaves ``SOLVER_ERROR`` solved again by the next able backend of
+:data:`AUTO_ORDER`).
 """
 
 from __future__ import annotations
@@ -15,11 +20,16 @@ from __future__ import annotations
 import importlib
 import threading
 from collections.abc import Sequence
+from dataclasses import dataclass
 from types import ModuleType
+from typing import Any
 
-from tension_opt.backends.base import Backend
+import numpy as np
+
+from tension_opt.backends.base import Backend, RawResult
 from tension_opt.errors import BackendNotAvailableError, UnsupportedProblemError
 from tension_opt.problem.form import StandardForm
+from tension_opt.status import Status
 
 #: Backend families: registry prefix -> module.
 FAMILIES: dict[str, str] = {
@@ -137,3 +147,85 @@ def choose_backend(backend: str | Backend, form: StandardForm,
         raise UnsupportedProblemError(
             f"{reason} (problem: {label}; backends that can: {able_backends(form)})")
     return chosen
+
+
+@dataclass(frozen=True)
+class Route:
+    """How a batch is solved: by ``backend``, and, with ``fallback``, the poses it
+    leaves ``SOLVER_ERROR`` (a pose its method does not cover, such as a rank-deficient
+    structure matrix in the closed form) by the next able backends of
+    :data:`AUTO_ORDER`."""
+
+    backend: Backend
+    fallback: bool
+
+
+def route(backend: str | Backend, form: StandardForm, *, hand_over: bool = False,
+          fallback: bool = False) -> Route:
+    """The route of ``form`` for a call that asked for ``backend``.
+
+    ``"auto"`` is the first able backend of :data:`AUTO_ORDER`, with the fallback. A
+    named backend (or an instance) solves alone; with ``hand_over`` a form it cannot
+    take goes to the automatic choice instead of raising (the unsmoothed first pose of a
+    smoothed sequence, an LP, on a QP-only solver). ``fallback`` asks for the fallback
+    whatever the backend (the poses of a sequence whose call said ``"auto"``).
+
+    Raises
+    ------
+    UnsupportedProblemError, BackendNotAvailableError
+        As :func:`choose_backend`.
+    """
+    auto = isinstance(backend, str) and backend == "auto"
+    if hand_over and not auto:
+        named = backend if isinstance(backend, Backend) else get_backend(backend)
+        if named.unsupported(form) is not None:
+            return Route(choose_backend("auto", form), True)
+        return Route(named, fallback)
+    return Route(choose_backend(backend, form), auto or fallback)
+
+
+def solve_routed(way: Route, form: StandardForm, options: dict[str, Any]) -> RawResult:
+    """``way.backend.solve(form, **options)``; with the fallback, the poses it reports
+    ``SOLVER_ERROR`` solved again by each later able backend of :data:`AUTO_ORDER` in
+    turn, their answers, certificates and times merged in (``extras["fallback"]``:
+    ``{backend: [poses]}``)."""
+    backend = way.backend
+    raw = backend.solve(form, **options)
+    if not way.fallback or not (raw.status == Status.SOLVER_ERROR).any():
+        return raw
+    order = list(AUTO_ORDER)
+    later = order[order.index(backend.name) + 1:] if backend.name in order else order
+    installed = set(available_backends())
+    for name in later:
+        failed = np.flatnonzero(raw.status == Status.SOLVER_ERROR)
+        if not len(failed):
+            break
+        other = get_backend(name) if name in installed else None
+        sub = form.subset(failed)
+        if other is None or other.unsupported(sub) is not None:
+            continue
+        _merge(raw, failed, other.solve(sub, **options), name)
+    return raw
+
+
+def _merge(raw: RawResult, failed: np.ndarray, again: RawResult, name: str) -> None:
+    """Write another backend's answers to poses ``failed`` of ``raw`` into it."""
+    raw.tensions[failed], raw.status[failed] = again.tensions, again.status
+    if raw.unique is not None:
+        raw.unique[failed] = True if again.unique is None else again.unique
+    if raw.iterations is not None:
+        raw.iterations[failed] = 0 if again.iterations is None else again.iterations
+    if raw.infeasibility is not None:
+        raw.infeasibility[failed] = (np.nan if again.infeasibility is None
+                                     else again.infeasibility)
+    if raw.certificate is not None and again.certificate is not None:
+        raw.certificate.put(failed, again.certificate)
+    else:  # measured afresh by the solution
+        raw.certificate = None
+        if raw.multipliers is not None and again.multipliers is not None:
+            raw.multipliers.put(failed, again.multipliers)
+    raw.setup_time += again.setup_time
+    raw.solve_time += again.solve_time
+    answered = failed[again.status != Status.SOLVER_ERROR]
+    if len(answered):
+        raw.extras.setdefault("fallback", {})[name] = answered.tolist()

@@ -40,7 +40,7 @@ def held_bounds(form: StandardForm, T: NDArray, multipliers: NDArray | None
     if multipliers is None:
         none = np.zeros(T.shape, dtype=bool)
         return none, none.copy()
-    tol = ACTIVE_TOL * form.scale()[:, None]
+    tol = ACTIVE_TOL * form.typical_tension()[:, None]
     with np.errstate(invalid="ignore"):
         lower = np.isfinite(form.lb) & (T <= form.lb + tol) & (multipliers < -MULTIPLIER_TOL)
         upper = np.isfinite(form.ub) & (T >= form.ub - tol) & (multipliers > MULTIPLIER_TOL)
@@ -60,7 +60,7 @@ def lp_optimum_is_unique(form: StandardForm, T: NDArray, multipliers: NDArray | 
     checks in dimension 1 and by a small LP beyond.
     """
     N, m = T.shape
-    scale = form.scale()
+    scale = form.typical_tension()
     tol = ACTIVE_TOL * scale[:, None]
     held = np.logical_or(*held_bounds(form, T, multipliers))
     at_lb = np.isfinite(form.lb) & (T <= form.lb + tol) | held
@@ -137,7 +137,7 @@ def optimal_face(form: StandardForm, T: NDArray, multipliers: NDArray | None = N
     within the same relaxation of the bound.
     """
     N, m = T.shape
-    scale = form.scale()
+    scale = form.typical_tension()
     lower, upper = held_bounds(form, T, multipliers)
     if lower.any() or upper.any():
         room = (1e-9 * np.abs(T) + 1e-12 * scale[:, None])
@@ -177,7 +177,7 @@ def low_dim_face_solve(form: StandardForm, T: NDArray, multipliers: NDArray | No
     if dims.max() > 2:
         return None
     out = T.copy()
-    scale = form.scale()
+    scale = form.typical_tension()
     for dim in (1, 2):
         sel = np.flatnonzero(dims == dim)
         if not len(sel):
@@ -240,7 +240,7 @@ def least_distance_face(form: StandardForm, T: NDArray, multipliers: NDArray | N
     from scipy.optimize import nnls
 
     face = optimal_face(form, T, multipliers)
-    s = float(form.scale()[0])
+    s = float(form.typical_tension()[0])
     _, sv, vt = np.linalg.svd(face.A[0], full_matrices=True)
     rank = int((sv > 1e-10 * sv[0]).sum()) if sv.size and sv[0] > 0 else 0
     Z = vt[rank:].T  # (m, d)

@@ -124,6 +124,14 @@ class Certificate:
     target: float
     multipliers: Multipliers
 
+    def put(self, poses: NDArray, other: Certificate) -> None:
+        """Write ``other``'s measures and multipliers (of these poses, same target)
+        into rows ``poses``."""
+        self.primal_residual[poses] = other.primal_residual
+        self.dual_residual[poses] = other.dual_residual
+        self.duality_gap[poses] = other.duality_gap
+        self.multipliers.put(poses, other.multipliers)
+
     @property
     def certified(self) -> NDArray:
         """Poses whose three measures all meet the target, shape (N,) (NaN fails)."""

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import threading
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,8 +25,15 @@ from numpy.typing import NDArray
 from tension_opt.problem.form import StandardForm
 from tension_opt.tolerances import ROW_FLOOR, UB_SHARE
 
-__all__ = ["ScaledBatch", "Scaling", "compiled_scaling", "scaled_batch", "scaled_objective",
-           "scaling_reference", "working_scale"]
+__all__ = [
+    "ScaledBatch",
+    "Scaling",
+    "compiled_scaling",
+    "reference_tension",
+    "scaled_batch",
+    "scaled_objective",
+    "scaling_reference",
+]
 
 
 @dataclass(frozen=True)
@@ -68,7 +75,7 @@ def scaling_reference(form: StandardForm) -> Scaling:
     docstring of :mod:`tension_opt.problem.form`): the numpy reference of
     :func:`compiled_scaling`."""
     with np.errstate(over="ignore", invalid="ignore"):
-        s = np.array(form.scale(), dtype=float)
+        s = np.array(form.typical_tension(), dtype=float)
     bad = ~np.isfinite(s)
     if bad.any():  # a wrench near 1e300 N: a finite stand-in keeps the scaled data finite
         lb = np.where(np.isfinite(form.lb[bad]), np.abs(form.lb[bad]), 0.0)
@@ -135,15 +142,13 @@ class ScaledBatch:
     scaling: Scaling | None = None
     epigraph: NDArray | None = None
 
-    @property
-    def N(self) -> int:
-        """Number of poses."""
-        return int(self.P.shape[0])
+    #: Number of poses, and variables per pose (cables, and the epigraph variable of a
+    #: min-max term).
+    N: int = field(init=False, repr=False)
+    k: int = field(init=False, repr=False)
 
-    @property
-    def k(self) -> int:
-        """Variables per pose (cables, and the epigraph variable of a min-max term)."""
-        return int(self.P.shape[1])
+    def __post_init__(self) -> None:
+        self.N, self.k = (int(size) for size in self.P.shape)
 
     def subset(self, index: NDArray | slice) -> ScaledBatch:
         """The poses ``index`` (indices, mask or slice); each pose's scaling is its own."""
@@ -170,11 +175,12 @@ class ScaledBatch:
             return np.einsum("nk,nk->n", 0.5 * self.P * x + self.c, x)
 
 
-def working_scale(form: StandardForm) -> NDArray:
-    """Reference tension per pose (N), shape (N,), finite even where
-    :meth:`StandardForm.scale` overflows (``scaling_reference(form).tension``); the batch's
-    when it is already built, else the scaling kernel's alone (building the whole
-    scaled batch only for this would be wasted)."""
+def reference_tension(form: StandardForm) -> NDArray:
+    """Reference tension per pose (N), shape (N,): the typical tension floored by
+    :data:`~tension_opt.tolerances.UB_SHARE` of the box, finite even where
+    :meth:`StandardForm.typical_tension` overflows (``scaling_reference(form).tension``);
+    the batch's when it is already built, else the scaling kernel's alone (building the
+    whole scaled batch only for this would be wasted)."""
     with _CACHE_LOCK:
         batch = _CACHE.get(form)
     return batch.scale if batch is not None else compiled_scaling(form).tension

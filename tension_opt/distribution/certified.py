@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tension_opt.backends.closed_form import ClosedFormBackend
-from tension_opt.backends.registry import choose_backend
+from tension_opt.backends.registry import route
 from tension_opt.certify.certificate import Multipliers
 from tension_opt.distribution.solution import TensionSolution, reused_array
 from tension_opt.errors import TensionOptError
@@ -67,7 +67,7 @@ def certified_plan(robot: CableRobot, problem: TensionProblem, backend: Any,
     n, m = robot.dof, robot.m
     try:  # the shapes and kind of the batch's forms, on a stand-in pose
         form = problem.standard_form_from(robot, np.zeros((1, n, m)), np.zeros((1, n)))
-        chosen = choose_backend(backend, form)
+        chosen = route(backend, form).backend
     except TensionOptError:
         return None
     if not (isinstance(chosen, ClosedFormBackend) and chosen.compiled):

@@ -20,13 +20,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.backends.base import MAX_ERRORS
+from tension_opt.checks import whole_positive
 from tension_opt.distribution.certified import CertifiedBatch
 from tension_opt.distribution.solution import TensionSolution
 from tension_opt.errors import InvalidInputError
 from tension_opt.problem.form import TensionProblem
 
-__all__ = ["CERTIFIED_TASK", "Joined", "certified_chunks", "chunk_threads", "in_batch",
-           "in_order", "merge_extras", "pose_rows", "renumbered", "slices_of"]
+__all__ = ["CERTIFIED_TASK", "Joined", "certified_chunks", "chunk_slices", "chunk_threads",
+           "in_batch", "in_order", "merge_extras", "pose_rows", "renumbered"]
 
 #: Poses per task of a batch on the certified compiled pass (:func:`certified_chunks`)
 #: where the caller gives no chunk size: a task is one kernel call writing into the
@@ -37,11 +38,19 @@ __all__ = ["CERTIFIED_TASK", "Joined", "certified_chunks", "chunk_threads", "in_
 CERTIFIED_TASK = 65536
 
 
-def slices_of(N: int, size: int) -> list[slice]:
-    """``range(N)`` cut into the fewest slices of at most ``size`` (>= 1), of equal
-    length to one (none of a few poses)."""
-    count = -(-N // size)
-    return [slice(k * N // count, (k + 1) * N // count) for k in range(count)]
+def chunk_slices(count: int, chunk_size: int) -> list[slice]:
+    """``range(count)`` cut into the fewest consecutive slices of at most ``chunk_size``,
+    of equal length to one (none for no poses): the one slicer of batches, for
+    :func:`~tension_opt.distribute`'s chunks and the executors' alike.
+
+    Raises
+    ------
+    InvalidInputError
+        If ``chunk_size`` is not a whole number >= 1 (an int, not a bool).
+    """
+    size = whole_positive("chunk_size", chunk_size)
+    parts = -(-count // size)
+    return [slice(k * count // parts, (k + 1) * count // parts) for k in range(parts)]
 
 
 def certified_chunks(batch: CertifiedBatch, task: int, size: int, workers: int,
@@ -64,7 +73,7 @@ def certified_chunks(batch: CertifiedBatch, task: int, size: int, workers: int,
             done.append((piece, sol))
         return done, elapsed
 
-    extras: dict[str, Any] = {"accuracy_target": batch.plan.target}  # as the chunk path's
+    extras: dict[str, Any] = {}
     times = [0.0, 0.0]  # setup, solve
 
     def join(sl: slice, result: tuple[Done, float]) -> None:
@@ -75,7 +84,7 @@ def certified_chunks(batch: CertifiedBatch, task: int, size: int, workers: int,
             times[0] += sol.setup_time
             times[1] += sol.solve_time
 
-    in_order(slices_of(batch.N, task), run, workers, join)
+    in_order(chunk_slices(batch.N, task), run, workers, join)
     return batch.solution(problem, extras, *times)
 
 
@@ -83,7 +92,7 @@ def _pieces(poses: NDArray | slice, size: int) -> list[NDArray | slice]:
     """Some poses of a batch (a slice, or their indices) in pieces of at most ``size``."""
     if isinstance(poses, slice):
         return [slice(poses.start + part.start, poses.start + part.stop)
-                for part in slices_of(poses.stop - poses.start, size)]
+                for part in chunk_slices(poses.stop - poses.start, size)]
     return [poses[k:k + size] for k in range(0, len(poses), size)]
 
 

@@ -194,6 +194,7 @@ class TensionSolution:
         multipliers: Multipliers | None = None,
         accuracy: object = None,
         optimality: bool = True,
+        certificate: Certificate | None = None,
     ) -> TensionSolution:
         """A solution of ``form`` with its diagnostics and certificate measured against it.
 
@@ -215,32 +216,32 @@ class TensionSolution:
         setup_time, solve_time : float
             Seconds.
         extras : dict, optional
-            Backend information; a backend's ``"multipliers"`` and ``"accuracy_target"``
-            entries are taken out of it as the two arguments below (when those are not
-            given).
+            Backend information.
         multipliers : Multipliers, optional
             The solver's multipliers of the scaled problem; estimated where missing.
         accuracy : {"default", "high"} or float, optional
-            Target of the certificate (default: the backend's, else 1e-7).
+            Target of the certificate (default 1e-7).
         optimality : bool
             False for tensions that are not meant to be optimal pose by pose (a path
             smoothed as a whole): only the primal residual is certified.
+        certificate : Certificate, optional
+            The backend's certificate of exactly these ``tensions`` on ``form`` at this
+            target (:attr:`tension_opt.backends.base.RawResult.certificate`), taken
+            instead of measured again; NaN where the status is not a solution.
         """
         extras = dict(extras or {})
-        given = extras.pop("multipliers", None)
-        multipliers = multipliers if multipliers is not None else given
-        target = accuracy_target(accuracy if accuracy is not None
-                                 else extras.get("accuracy_target"))
+        target = accuracy_target(accuracy)
         T, status, solved = _solutions(tensions, status)
         with np.errstate(over="ignore", invalid="ignore"):
             residual = form.equilibrium_residual(T)
             violation = form.bound_violation(T)
             objective = form.objective_value(T)
         violation[~solved] = np.nan
-        tol = max(FEASIBILITY_TOL, 10.0 * target) * form.tolerance_scale()
+        tol = max(FEASIBILITY_TOL, 10.0 * target) * form.load_scale()
         # Written so that a NaN measure (an overflow) fails the certificate.
         feasible = (residual <= tol) & (violation <= tol)
-        certificate, certified = _certificate(form, T, multipliers, target, optimality)
+        certificate, certified = _certificate(form, T, multipliers, target, optimality,
+                                              certificate, solved)
         status[solved & ~(feasible & certified)] = Status.INACCURATE
         N = len(T)
         return cls(
@@ -422,10 +423,16 @@ def _solutions(tensions: NDArray, status: NDArray) -> tuple[NDArray, NDArray, ND
 
 
 def _certificate(form: StandardForm, tensions: NDArray, multipliers: Multipliers | None,
-                 target: float, optimality: bool) -> tuple[Certificate, NDArray]:
+                 target: float, optimality: bool, given: Certificate | None = None,
+                 solved: NDArray | None = None) -> tuple[Certificate, NDArray]:
     """The certificate of ``tensions`` on ``form`` and the poses it certifies; with
     ``optimality`` False only the primal residual is measured and judged (the dual
-    residual and gap are NaN)."""
+    residual and gap are NaN). A certificate ``given`` by the backend, of these tensions
+    at this target, is taken instead, its measures NaN where a pose is not ``solved``."""
+    if given is not None and optimality and given.target == target and solved is not None:
+        for measure in (given.primal_residual, given.dual_residual, given.duality_gap):
+            measure[~solved] = np.nan
+        return given, given.certified
     if form.N == 0:
         empty = np.zeros(0)
         return Certificate(empty, empty, empty, target, Multipliers(
@@ -450,4 +457,5 @@ def solution_of(form: StandardForm, raw: RawResult, backend: Backend,
         form, raw.tensions, raw.status, backend=backend.name, solver=backend.solver,
         solver_version=backend.version, unique=raw.unique, iterations=raw.iterations,
         infeasibility=raw.infeasibility, setup_time=raw.setup_time + setup_time,
-        solve_time=raw.solve_time, extras=raw.extras)
+        solve_time=raw.solve_time, extras=raw.extras, multipliers=raw.multipliers,
+        accuracy=raw.accuracy_target, certificate=raw.certificate)

@@ -48,8 +48,7 @@ from tension_opt.dynamics.stage_lp import StageLP
 from tension_opt.dynamics.timed import TimedTrajectory
 from tension_opt.dynamics.timing_convex import convex_timing
 from tension_opt.errors import InvalidInputError
-from tension_opt.problem.affine import typical_tension
-from tension_opt.problem.form import Objective, TensionProblem, as_problem
+from tension_opt.problem.form import Objective, TensionProblem, as_problem, typical_tension
 from tension_opt.robot import CableRobot
 from tension_opt.status import Status, status_array
 from tension_opt.workspace.margin import margin_solve

@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt.backends.base import note_error, quiet_solvers
 from tension_opt.backends.registry import get_backend
 from tension_opt.backends.settings import check_options, solver_options
-from tension_opt.certify.scaling import working_scale
+from tension_opt.certify.scaling import reference_tension
 from tension_opt.distribution.entry import distribute
 from tension_opt.distribution.solution import TensionSolution
 from tension_opt.errors import (
@@ -142,7 +142,7 @@ def _path_qp(form: StandardForm, weight: float) -> tuple[float, tuple[Any, ...]]
     Hessian entry (or cost), so a weight of 1e10 poses the solver a well-scaled problem.
     """
     N, m = form.N, form.m
-    s = float(np.median(working_scale(form)))
+    s = float(np.median(reference_tension(form)))
     top = max(float(form.q.max(initial=0.0)), 2.0 * weight)
     cost = float(np.abs(form.c).max(initial=0.0))
     sigma = s**2 * top if top > 0 else s * (cost if cost > 0 else 1.0)

@@ -1,18 +1,12 @@
 """Tensions in equilibrium as an affine set ``T = T0 + Z z``, for a batch of poses.
 
 Every tension distribution ``A T = b`` (``A`` of shape (N, n, m)) is a particular
-solution ``T0`` plus a combination of null-space vectors ``Z``. This module holds the
-pieces that the closed-form backend (:mod:`tension_opt.backends.closed_form`), the
-low-dimensional solvers (:mod:`tension_opt.backends.lowdim`) and the capacity margin
-(:mod:`tension_opt.workspace.margin`) share:
-
-- :func:`typical_tension`: the tension scale of a pose (tolerances are relative to it),
-  measured with :func:`safe_norm` (no overflow of squares, wrenches up to the float range);
-- :func:`pinv_and_null` (full row rank) and :func:`solution_set` (any rank, with the
-  consistency of ``b``): minimum-norm ``T0`` and an orthonormal null-space basis;
-- :func:`bound_lines`: bounds ``lb <= T0 + Z z <= ub`` as half-spaces in ``z``;
-- :func:`min_of_max_lines`: the exact minimum of a maximum of lines, the
-  one-dimensional optimisation both the min-max objective and the margin reduce to.
+solution ``T0`` plus a combination of null-space vectors ``Z``: :func:`pinv_and_null`
+(full row rank) and :func:`solution_set` (any rank, with the consistency of ``b``) give
+the minimum-norm ``T0`` and an orthonormal null-space basis, for the closed-form
+backend (:mod:`tension_opt.backends.closed_form`) and the capacity margin
+(:mod:`tension_opt.workspace.margin`). The minimisation over the set (bounds as
+half-spaces, the minimum of a maximum of lines) is :mod:`tension_opt.backends.lowdim`'s.
 """
 
 from __future__ import annotations
@@ -22,14 +16,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from tension_opt.problem.form import safe_norm
+
 __all__ = [
     "CONSISTENCY_TOL",
     "RANK_TOL",
     "SolutionSet",
     "pinv_and_null",
-    "safe_norm",
     "solution_set",
-    "typical_tension",
 ]
 
 #: Singular values below this fraction of the largest count as zero (rank of ``A``).
@@ -37,59 +31,6 @@ RANK_TOL = 1e-10
 #: ``b`` is outside the range of a singular ``A`` when its residual exceeds this
 #: fraction of ``||b||``.
 CONSISTENCY_TOL = 1e-9
-
-
-def typical_tension(A: NDArray, b: NDArray, lb: NDArray) -> NDArray:
-    """Typical tension per pose (N), the unit of the solvers' tolerances, shape (N,).
-
-    The larger of ``||b||`` over the longest column of ``A`` (the tension that holds
-    the wrench) and the largest finite lower bound, at least ``1e-12``.
-
-    Parameters
-    ----------
-    A : ndarray, shape (N, n, m)
-        Structure matrices.
-    b : ndarray, shape (N, n)
-        Wrenches to hold (N, N m).
-    lb : ndarray, shape (N, m)
-        Lower tension bounds (N); ``-inf`` where absent.
-    """
-    col = safe_norm(A, axis=1).max(axis=1)
-    with np.errstate(over="ignore"):  # a quotient beyond the float range is inf
-        s = safe_norm(b, axis=1) / np.maximum(col, 1e-300)
-    finite_lb = np.where(np.isfinite(lb), np.abs(lb), 0.0).max(axis=1)
-    return np.maximum(np.maximum(s, finite_lb), 1e-12)
-
-
-def safe_norm(x: NDArray, axis: int) -> NDArray:
-    """Euclidean norms of ``x`` along ``axis`` without overflow or underflow of the
-    squares: norms of entries beyond about 1e154 (or below 1e-154) are taken of the
-    entries divided by their largest magnitude, then scaled back.
-
-    Parameters
-    ----------
-    x : ndarray
-        Finite entries (a non-finite entry gives an infinite or NaN norm).
-    axis : int
-
-    Returns
-    -------
-    ndarray
-        ``x``'s shape without ``axis``; ``inf`` only where the norm itself exceeds the
-        float range.
-    """
-    with np.errstate(over="ignore", under="ignore"):
-        r = np.asarray(np.linalg.norm(x, axis=axis))
-        # Squares that overflowed, or that may have underflowed (rare: measured again).
-        redo = np.isinf(r) | (r < 1e-150)
-        if redo.any():
-            moved = np.moveaxis(x, axis, -1)[redo]
-            top = np.abs(moved).max(axis=-1, initial=0.0)
-            fine = np.isfinite(top) & (top > 0)
-            again = r[redo]
-            again[fine] = top[fine] * np.linalg.norm(moved[fine] / top[fine, None], axis=-1)
-            r[redo] = again
-    return r
 
 
 def _particular(U: NDArray, inv_s: NDArray, Vt: NDArray, b: NDArray) -> tuple[NDArray, NDArray]:

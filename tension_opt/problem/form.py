@@ -12,18 +12,25 @@ with a diagonal Hessian ``q >= 0``. Smoothing for sequences adds
 ``smoothing * ||T - T_prev||^2`` to the objective; a rate limit
 ``|T - T_prev| <= rate_limit`` tightens the bounds.
 
-Scaling. The form stays in newtons; every generic backend solves it nondimensionalised,
-pose by pose (:meth:`StandardForm.scaling`, the one definition; the closed form is
-exact and needs none):
+The tension scale. A pose has one: its typical tension (:func:`typical_tension`,
+:meth:`StandardForm.typical_tension`), the tension that holds the wrench (``||b||`` over
+the longest column of ``A``) or the largest lower bound if larger. Tolerances on
+tensions are relative to it, and the scaled problem's reference tension is derived
+from it. (The feasibility check of a solution is relative to the load instead,
+:meth:`StandardForm.load_scale`: its residual is a wrench.)
 
-- tensions in units of a reference tension ``s`` of the pose (the tension that holds
-  the wrench, ``||b||`` over the longest column of ``A``, or the largest lower bound if
-  larger; :meth:`StandardForm.scale`), and at least :data:`UB_SHARE` of the largest
-  finite upper bound (an unloaded pose keeps its box of order 1e3 wide): ``T = s x``;
+Scaling. The form stays in newtons; every generic backend solves it nondimensionalised,
+pose by pose (:func:`tension_opt.certify.scaling.scaling_reference`, the one
+definition, and its kernel; the closed form is exact and needs none):
+
+- tensions in units of a reference tension ``s`` of the pose, the typical tension but
+  at least :data:`~tension_opt.tolerances.UB_SHARE` of the largest finite upper bound
+  (an unloaded pose keeps its box of order 1e3 wide): ``T = s x``;
 - each equilibrium row divided by its norm, so that forces and moments weigh alike:
   ``D A x = D b / s`` with ``D = diag(1 / ||A_i||)`` (a row shorter than
-  :data:`ROW_FLOOR` of the longest, such as a moment the cables cannot make that is
-  zero but for rounding, is scaled up by ``1 / ROW_FLOOR`` at most);
+  :data:`~tension_opt.tolerances.ROW_FLOOR` of the longest, such as a moment the cables
+  cannot make that is zero but for rounding, is scaled up by ``1 / ROW_FLOOR`` at
+  most);
 - the objective divided by its own size, ``s^2 max_i q_i`` for a QP and
   ``s max(max_i |c_i|, max_i v_i)`` for an LP, so that the largest Hessian entry or
   cost is 1 and the optimum is of order one.
@@ -42,7 +49,7 @@ bound violation, objective), which is how a solution's diagnostics are computed.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -50,12 +57,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.checks import is_number
 from tension_opt.errors import InvalidInputError
-from tension_opt.problem.affine import safe_norm, typical_tension
 from tension_opt.problem.objectives import Objective, get_objective
 from tension_opt.robot import CableRobot
 
-__all__ = [ "Objective", "StandardForm", "TensionProblem",
-           "as_problem"]
+__all__ = ["Objective", "StandardForm", "TensionProblem", "as_problem", "safe_norm",
+           "typical_tension"]
 
 if TYPE_CHECKING:
 
@@ -66,6 +72,59 @@ if TYPE_CHECKING:
         def __get__(self, obj: object, owner: type | None = None) -> Objective: ...
 
         def __set__(self, obj: object, value: Objective | str) -> None: ...
+
+
+def typical_tension(A: NDArray, b: NDArray, lb: NDArray) -> NDArray:
+    """Typical tension per pose (N), the unit of the solvers' tolerances, shape (N,).
+
+    The larger of ``||b||`` over the longest column of ``A`` (the tension that holds
+    the wrench) and the largest finite lower bound, at least ``1e-12``.
+
+    Parameters
+    ----------
+    A : ndarray, shape (N, n, m)
+        Structure matrices.
+    b : ndarray, shape (N, n)
+        Wrenches to hold (N, N m).
+    lb : ndarray, shape (N, m)
+        Lower tension bounds (N); ``-inf`` where absent.
+    """
+    col = safe_norm(A, axis=1).max(axis=1)
+    with np.errstate(over="ignore"):  # a quotient beyond the float range is inf
+        s = safe_norm(b, axis=1) / np.maximum(col, 1e-300)
+    finite_lb = np.where(np.isfinite(lb), np.abs(lb), 0.0).max(axis=1)
+    return np.maximum(np.maximum(s, finite_lb), 1e-12)
+
+
+def safe_norm(x: NDArray, axis: int) -> NDArray:
+    """Euclidean norms of ``x`` along ``axis`` without overflow or underflow of the
+    squares: norms of entries beyond about 1e154 (or below 1e-154) are taken of the
+    entries divided by their largest magnitude, then scaled back.
+
+    Parameters
+    ----------
+    x : ndarray
+        Finite entries (a non-finite entry gives an infinite or NaN norm).
+    axis : int
+
+    Returns
+    -------
+    ndarray
+        ``x``'s shape without ``axis``; ``inf`` only where the norm itself exceeds the
+        float range.
+    """
+    with np.errstate(over="ignore", under="ignore"):
+        r = np.asarray(np.linalg.norm(x, axis=axis))
+        # Squares that overflowed, or that may have underflowed (rare: measured again).
+        redo = np.isinf(r) | (r < 1e-150)
+        if redo.any():
+            moved = np.moveaxis(x, axis, -1)[redo]
+            top = np.abs(moved).max(axis=-1, initial=0.0)
+            fine = np.isfinite(top) & (top > 0)
+            again = r[redo]
+            again[fine] = top[fine] * np.linalg.norm(moved[fine] / top[fine, None], axis=-1)
+            r[redo] = again
+    return r
 
 
 @dataclass(frozen=True, eq=False)
@@ -385,36 +444,29 @@ class StandardForm:
     h: NDArray | None = None
     reference: NDArray | None = None
 
-    @property
-    def N(self) -> int:
-        """Number of poses."""
-        return int(self.A.shape[0])
+    #: Number of poses, rows of the structure matrix, number of cables.
+    N: int = field(init=False, repr=False)
+    n: int = field(init=False, repr=False)
+    m: int = field(init=False, repr=False)
+    #: ``"lp"``, ``"minmax"`` (LP in epigraph form), ``"minmax_qp"`` or ``"qp"`` (for an
+    #: empty batch, what its problem would give).
+    kind: str = field(init=False, repr=False)
+    #: True for LPs, whose optimum may be non-unique.
+    is_linear: bool = field(init=False, repr=False)
 
-    @property
-    def n(self) -> int:
-        """Rows of the structure matrix."""
-        return int(self.A.shape[1])
-
-    @property
-    def m(self) -> int:
-        """Number of cables."""
-        return int(self.A.shape[2])
-
-    @property
-    def kind(self) -> str:
-        """``"lp"``, ``"minmax"`` (LP in epigraph form), ``"minmax_qp"`` or ``"qp"``
-        (for an empty batch, what its problem would give)."""
+    def __post_init__(self) -> None:
+        # Read at every step of a solve: set once, as fields (the form is frozen).
+        N, n, m = (int(size) for size in self.A.shape)
         quadratic = bool(self.q.any())
-        if self.N == 0 and self.problem is not None:
+        if N == 0 and self.problem is not None:
             quadratic = not self.problem.is_linear
         if self.minmax is not None:
-            return "minmax_qp" if quadratic else "minmax"
-        return "qp" if quadratic else "lp"
-
-    @property
-    def is_linear(self) -> bool:
-        """True for LPs, whose optimum may be non-unique."""
-        return self.kind in ("lp", "minmax")
+            kind = "minmax_qp" if quadratic else "minmax"
+        else:
+            kind = "qp" if quadratic else "lp"
+        for name, value in (("N", N), ("n", n), ("m", m), ("kind", kind),
+                            ("is_linear", kind in ("lp", "minmax"))):
+            object.__setattr__(self, name, value)
 
     def subset(self, index: NDArray | slice) -> StandardForm:
         """The problems of the poses ``index`` (indices, mask or slice) only."""
@@ -464,19 +516,24 @@ class StandardForm:
             previous = np.where(np.isfinite(self.previous), self.previous, tensions)
         return self.problem.evaluate(tensions, self.lb, self.ub, previous, self.reference)
 
-    def tolerance_scale(self) -> NDArray:
-        """Scale (N) of the feasibility check per pose: the larger of ``||b||`` and the
-        largest finite lower bound, at least ``1e-12`` N (the floor of :meth:`scale`, so
-        that a pose with nothing to hold and no lower bound is not held to zero), shape
-        (N,)."""
+    def load_scale(self) -> NDArray:
+        """Size of the load per pose, the unit of the feasibility check of a solution
+        (its equilibrium residual, a wrench, and its bound violation), shape (N,): the
+        larger of ``||b||`` and the largest finite lower bound, at least ``1e-12`` (the
+        floor of :meth:`typical_tension`, so that a pose with nothing to hold and no
+        lower bound is not held to zero). Not a tension scale: for a point robot (unit
+        columns) it is the typical tension, for a turning platform ``||b||`` counts
+        moments in N m."""
         finite_lb = np.where(np.isfinite(self.lb), np.abs(self.lb), 0.0)
         return np.maximum(np.maximum(safe_norm(self.b, axis=1), finite_lb.max(axis=1, initial=0.0)),
                           1e-12)
 
-    def scale(self) -> NDArray:
-        """Typical tension per pose (N), used to normalise the solvers' units, shape (N,)
-        (:func:`tension_opt.problem.affine.typical_tension`); read-only, computed once (a
-        solve and its tie-break ask for it several times)."""
+    def typical_tension(self) -> NDArray:
+        """The tension scale of each pose (N), shape (N,): :func:`typical_tension` of the
+        form. Every tolerance on a tension is relative to it, and the reference tension
+        of the scaled problem (:class:`tension_opt.certify.scaling.Scaling`) is it,
+        floored by :data:`~tension_opt.tolerances.UB_SHARE` of the box. Read-only,
+        computed once (a solve and its tie-break ask for it several times)."""
         known = self.__dict__.get("_typical")
         if known is None:
             known = typical_tension(self.A, self.b, self.lb)

@@ -24,11 +24,12 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt.backends.base import Backend
 from tension_opt.backends.registry import get_backend
 from tension_opt.checks import as_float_array
+from tension_opt.distribution.chunks import chunk_slices
 from tension_opt.distribution.entry import distribute
 from tension_opt.errors import InvalidInputError
 from tension_opt.robot import CableRobot
 from tension_opt.status import Status, status_array
-from tension_opt.workspace.executors import Executor, chunk_slices, merge_chunks, run_chunks
+from tension_opt.workspace.executors import Executor, merge_chunks, run_chunks
 from tension_opt.workspace.grid import Grid, check_bounds
 from tension_opt.workspace.margin import pose_margins
 from tension_opt.workspace.result import WorkspaceResult

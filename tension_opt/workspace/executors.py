@@ -33,7 +33,6 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from tension_opt.checks import whole_positive
 from tension_opt.errors import BackendNotAvailableError, InvalidInputError
 
 __all__ = [
@@ -42,7 +41,6 @@ __all__ = [
     "Executor",
     "InProcessExecutor",
     "ProcessPoolExecutor",
-    "chunk_slices",
     "get_executor",
     "merge_chunks",
     "run_chunks",
@@ -265,18 +263,6 @@ def _is_dask_client(obj: object) -> bool:
     return isinstance(obj, Client)
 
 
-def chunk_slices(count: int, chunk_size: int) -> list[slice]:
-    """Consecutive slices covering ``range(count)``, each at most ``chunk_size`` long.
-
-    Raises
-    ------
-    InvalidInputError
-        If ``chunk_size`` is not a whole number >= 1 (an int, not a bool).
-    """
-    chunk_size = whole_positive("chunk_size", chunk_size)
-    return [slice(start, min(start + chunk_size, count)) for start in range(0, count, chunk_size)]
-
-
 def run_chunks(
     fn: Callable[[T], R],
     chunks: Sequence[T],
@@ -321,7 +307,8 @@ def run_chunks(
 
 
 def merge_chunks(parts: Sequence[dict[str, Any]], keys: Sequence[str]) -> dict[str, np.ndarray]:
-    """Per-chunk arrays joined in chunk order, the inverse of cutting by :func:`chunk_slices`.
+    """Per-chunk arrays joined in chunk order, the inverse of cutting by
+    :func:`~tension_opt.distribution.chunks.chunk_slices`.
 
     Parameters
     ----------

@@ -46,8 +46,8 @@ from tension_opt.backends.registry import LP_ORDER, available_backends, choose_b
 from tension_opt.backends.settings import check_options
 from tension_opt.checks import as_float_array
 from tension_opt.errors import InvalidInputError, UnsupportedProblemError
-from tension_opt.problem.affine import SolutionSet, solution_set, typical_tension
-from tension_opt.problem.form import StandardForm
+from tension_opt.problem.affine import SolutionSet, solution_set
+from tension_opt.problem.form import StandardForm, typical_tension
 from tension_opt.robot import CableRobot
 from tension_opt.status import STATUS_DTYPE, Status, status_array
 

@@ -12,9 +12,9 @@ import catenary
 import tension_opt as to
 from benchmarks.cable_cases import random_cables
 from catenary.elastic import axial_compliance, evaluate
-from catenary.realtime import solve_forces_compiled, solve_length_compiled
 from catenary.solve import compiled, kernels
 from catenary.solve.kernels_spans import asinh_fast, spans_flex
+from catenary.solve_compiled import solve_forces_compiled, solve_length_compiled
 
 SETTINGS = settings(max_examples=40, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
@@ -303,7 +303,7 @@ def test_compiled_thesis_ik_matches_inverse_kinematics(seed, name, objective):
     """One pose through the plain call (its cached compiled solver) and through
     ThesisIK, against the numpy reference: home, poses outside the workspace, a pose
     far above the drawing points (no tensions hold it), with and without a wrench."""
-    from catenary.realtime_ik import ThesisIK
+    from catenary.thesis_ik import ThesisIK
     from tension_opt import presets
 
     robot = presets.algae_harvester() if name == "algae" else presets.cogiro()
@@ -329,20 +329,20 @@ def test_compiled_thesis_ik_cache_and_the_cases_it_leaves():
     """The plain call reuses one compiled solver per robot and problem; smoothed
     objectives, other backends, batches and bad poses take the numpy path (same
     answers, same errors)."""
-    from catenary import compiled_thesis
+    from catenary import thesis_ik_kernels
     from tension_opt import presets
 
     robot = presets.algae_harvester()
     pose = robot.default_home()
-    first = compiled_thesis.thesis_solver(robot, "min_sum", "auto", {})
-    assert first is not None and compiled_thesis.thesis_solver(robot, "min_sum", "auto",
+    first = thesis_ik_kernels.thesis_solver(robot, "min_sum", "auto", {})
+    assert first is not None and thesis_ik_kernels.thesis_solver(robot, "min_sum", "auto",
                                                                {}) is first
     # The closed form and the catenaries answer in one compiled call.
     assert first._fused is not None and first.solve(pose, None) is not None
-    assert compiled_thesis.thesis_solver(robot, "min_norm", "auto", {}) is not first
-    assert compiled_thesis.thesis_solver(robot, "min_sum", "scipy:highs", {}) is None
+    assert thesis_ik_kernels.thesis_solver(robot, "min_norm", "auto", {}) is not first
+    assert thesis_ik_kernels.thesis_solver(robot, "min_sum", "scipy:highs", {}) is None
     smooth = to.TensionProblem("min_norm", smoothing=1.0)
-    assert compiled_thesis.thesis_solver(robot, smooth, "auto", {}) is None
+    assert thesis_ik_kernels.thesis_solver(robot, smooth, "auto", {}) is None
     for args in ((pose, "thesis", smooth), (np.stack([pose, pose + 0.5]), "thesis"),
                  (pose, "thesis", "min_sum", "scipy:highs")):
         ik_agree(catenary.inverse_kinematics(robot, *args),
@@ -352,9 +352,9 @@ def test_compiled_thesis_ik_cache_and_the_cases_it_leaves():
             catenary.inverse_kinematics(robot, bad, compiled=False)
         with pytest.raises(type(ref.value), match=str(ref.value)[:20]):
             catenary.inverse_kinematics(robot, bad)
-    for _ in range(compiled_thesis.CACHE_SIZE + 2):  # the cache stays bounded
-        compiled_thesis.thesis_solver(presets.algae_harvester(), "min_sum", "auto", {})
-    assert len(compiled_thesis._CACHE) <= compiled_thesis.CACHE_SIZE
+    for _ in range(thesis_ik_kernels.CACHE_SIZE + 2):  # the cache stays bounded
+        thesis_ik_kernels.thesis_solver(presets.algae_harvester(), "min_sum", "auto", {})
+    assert len(thesis_ik_kernels._CACHE) <= thesis_ik_kernels.CACHE_SIZE
 
 
 def test_argument_types_reach_the_kernels_as_contiguous_float64():

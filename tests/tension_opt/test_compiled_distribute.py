@@ -91,7 +91,7 @@ def assert_same_raw(form: StandardForm) -> tuple[to.Status, ...]:
     assert (gap[ok] <= REL * np.broadcast_to(scale, gap.shape)[ok]).all(), gap.max()
     np.testing.assert_array_equal(np.isnan(got.infeasibility), np.isnan(want.infeasibility))
     known = np.isfinite(want.infeasibility)
-    typical = form.scale()
+    typical = form.typical_tension()
     assert (np.abs(got.infeasibility[known] - want.infeasibility[known])
             <= REL * np.maximum(want.infeasibility, typical)[known]).all()
     np.testing.assert_array_equal(np.isinf(got.infeasibility), np.isinf(want.infeasibility))
@@ -367,7 +367,7 @@ def test_compiled_sequence_equals_pose_by_pose(robot_name: str, problem: to.Tens
     wrench[60, 0] = 1e160
     fast = to.distribute(robot, poses, problem, "closed_form", wrench=wrench,
                          previous=previous)
-    distribute_module = importlib.import_module("tension_opt.distribution.entry")
+    distribute_module = importlib.import_module("tension_opt.distribution.sequence")
     monkeypatch.setattr(distribute_module, "_compiled_sequence", lambda *args: None)
     slow = to.distribute(robot, poses, problem, "closed_form", wrench=wrench,
                          previous=previous)
@@ -437,7 +437,7 @@ def test_qp_sequence_equals_pose_by_pose(robot_name: str, problem: to.TensionPro
     monkeypatch.setattr(QpsolversBackend, "solve_sequence", counted)
     fast = to.distribute(robot, poses, problem, backend, wrench=wrench,
                          previous=previous, accuracy=accuracy)
-    distribute_module = importlib.import_module("tension_opt.distribution.entry")
+    distribute_module = importlib.import_module("tension_opt.distribution.sequence")
     monkeypatch.setattr(distribute_module, "_compiled_sequence", lambda *args: None)
     slow = to.distribute(robot, poses, problem, backend, wrench=wrench,
                          previous=previous, accuracy=accuracy)

@@ -431,7 +431,7 @@ def test_backends_agree_where_they_say_optimal(data: st.DataObject) -> None:
     if len(solutions) < 2:
         return
     names = list(solutions)
-    scale = solutions[names[0]].form.tolerance_scale()
+    scale = solutions[names[0]].form.load_scale()
     weights = problem.cable_weights(robot.m)
     for i, first in enumerate(names):
         for second in names[i + 1:]:

@@ -6,12 +6,12 @@ import math
 
 import pytest
 
+from tension_opt.distribution.chunks import chunk_slices
 from tension_opt.errors import InvalidInputError
 from tension_opt.workspace.executors import (
     DASK_ADDRESS_VARIABLE,
     InProcessExecutor,
     ProcessPoolExecutor,
-    chunk_slices,
     get_executor,
     run_chunks,
 )

@@ -84,7 +84,7 @@ def both_paths(robot: to.CableRobot, poses: np.ndarray, problem: object, backend
 def load_scale(robot: to.CableRobot, poses: np.ndarray, problem: TensionProblem,
                wrench: object) -> np.ndarray:
     """The tolerance scale of each pose (N): its load, or its largest lower bound."""
-    return problem.standard_form(robot, poses, wrench).tolerance_scale()
+    return problem.standard_form(robot, poses, wrench).load_scale()
 
 
 def assert_same(fast: to.TensionSolution, slow: to.TensionSolution, scale: np.ndarray

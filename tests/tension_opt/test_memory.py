@@ -25,8 +25,8 @@ from tension_opt.backends.base import RawResult
 from tension_opt.backends.closed_form import ClosedFormBackend
 from tension_opt.distribution.entry import CHUNK_SIZE
 from tension_opt.errors import InvalidInputError
-from tension_opt.problem.affine import safe_norm, solution_set, typical_tension
-from tension_opt.problem.form import StandardForm, TensionProblem
+from tension_opt.problem.affine import solution_set
+from tension_opt.problem.form import StandardForm, TensionProblem, safe_norm, typical_tension
 from tension_opt.workspace.sampling import default_box, feasible_mask, random_feasible_poses
 
 # The module (the package's name ``distribute`` is the function).

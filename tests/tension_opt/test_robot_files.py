@@ -129,7 +129,7 @@ def test_material_labels_are_the_catalogue_names() -> None:
 
 
 # ------------------------------------------------------------------ validation
-GOOD = ROOT / "tension_opt" / "data" / "cogiro.yaml"
+GOOD = ROOT / "tension_opt" / "robot" / "data" / "cogiro.yaml"
 
 
 def _line_of(text: str, start: str, nth: int = 1) -> int:

@@ -19,8 +19,8 @@ from hypothesis import strategies as st
 
 import catenary
 import tension_opt as to
+from catenary.coupled_ik import CERT_TOL, CoupledIK, force_slope_one
 from catenary.geometry import cable_planes, force_slope, taut_catenaries
-from catenary.realtime_coupled import CERT_TOL, CoupledIK, force_slope_one
 from tension_opt import presets
 from tension_opt.status import Status
 
@@ -217,6 +217,6 @@ def test_bad_input_names_the_argument() -> None:
     with pytest.raises(catenary.InvalidCableError, match="max_iter"):
         CoupledIK(ALGAE, max_iter=0)
     with pytest.raises(catenary.InvalidCableError, match="smoothing"):
-        CoupledIK(ALGAE, to.problems.min_sum(smoothing=1.0))
+        CoupledIK(ALGAE, to.TensionProblem("min_sum", smoothing=1.0))
     with pytest.raises(catenary.InvalidCableError, match="no cable properties"):
         CoupledIK(dataclasses.replace(ALGAE, cable=None))

@@ -2,9 +2,9 @@
 called per pose, for control loops: :class:`ThesisIK`.
 
 The numpy reference is :func:`catenary.inverse_kinematics` with ``model="thesis"``,
-which itself runs the compiled kernels of :mod:`catenary.compiled_thesis` for one pose
+which itself runs the compiled kernels of :mod:`catenary.thesis_ik_kernels` for one pose
 (through a small cache). :class:`ThesisIK` holds its own
-:class:`~catenary.compiled_thesis.CompiledThesis` (so any backend may be used, also one
+:class:`~catenary.thesis_ik_kernels.CompiledThesis` (so any backend may be used, also one
 that keeps a warm start between poses); a pose the kernels do not settle is answered by
 :func:`catenary.inverse_kinematics` itself, so the statuses are the numpy path's.
 """
@@ -19,9 +19,9 @@ from numpy.typing import ArrayLike
 import tension_opt
 from tension_opt.problem.form import TensionProblem
 
-from .compiled_thesis import CompiledThesis
-from .compiled_thesis import thesis_pose as thesis_pose
 from .inverse import InverseKinematicsResult, inverse_kinematics, thesis_result
+from .thesis_ik_kernels import CompiledThesis
+from .thesis_ik_kernels import thesis_pose as thesis_pose
 
 __all__ = ["ThesisIK", "thesis_pose"]
 
