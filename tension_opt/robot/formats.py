@@ -2,9 +2,11 @@
 
 :mod:`tension_opt.robot.files` holds the schema; this module turns a file's text into
 plain data and back, finds the line of each field for error messages, and builds
-:class:`~tension_opt.errors.RobotFileError`. YAML is read with PyYAML's safe loader in
-a YAML 1.2 flavour (``1e5`` is a number) that refuses duplicate keys; floats are
-written with Python's shortest round-trip ``repr`` in both formats.
+:class:`~tension_opt.errors.RobotFileError`. YAML is read with PyYAML's safe loader
+resolving plain scalars by the YAML 1.2 core schema (``010`` is 10, ``1e5`` a number,
+``1:30``, ``1_000`` and ``yes`` text), refusing duplicate keys; floats are written with
+Python's shortest round-trip ``repr`` in both formats, and text that YAML 1.1 or 1.2
+would read as anything else is quoted.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import math
 import re
 from os import PathLike
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any, ClassVar, NoReturn
 
 import yaml
 
@@ -52,13 +54,59 @@ def checked_path(path: str | PathLike[str]) -> Path:
 
 
 # ------------------------------------------------------------------ YAML dialect
-# PyYAML reads YAML 1.1, where ``1e5`` (no dot) is text; these files follow YAML 1.2
-# and read it as a number. The dumper knows the same rule, so it quotes such text.
-_FLOAT_12 = re.compile(r"^[-+]?(?:[0-9][0-9_]*\.?[0-9_]*|\.[0-9_]+)[eE][-+]?[0-9]+$")
+# PyYAML reads YAML 1.1, where 010 is octal 8, 1:30 is 90 (base 60), 1_000 is 1000, 0b10
+# is 2, yes/no/on/off are booleans and 2001-12-14 is a date, while 1e5 (no dot) is text.
+# These files follow YAML 1.2 and its core schema: the loader resolves plain scalars by
+# the core schema's rules only (below), so 010 is 10 and 1:30, 1_000 and yes are text.
+# Quoted scalars are text in both.
+_CORE_SCHEMA: tuple[tuple[str, str, str], ...] = (
+    ("null", r"~|null|Null|NULL|", "~nN"),
+    ("bool", r"true|True|TRUE|false|False|FALSE", "tTfF"),
+    ("int", r"[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+", "-+0123456789"),
+    ("float", r"[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+     r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN)", "-+0123456789."),
+)
+_RESOLVE = {name: re.compile(f"^(?:{pattern})$") for name, pattern, _ in _CORE_SCHEMA}
+
+
+def _core_scalar(loader: yaml.BaseLoader, node: yaml.ScalarNode, name: str) -> str:
+    """The text of a scalar tagged ``name`` (plain or ``!!name``), refused unless it is
+    written as the core schema writes that type."""
+    text = str(loader.construct_scalar(node))
+    if not _RESOLVE[name].match(text):
+        raise yaml.constructor.ConstructorError(
+            None, None, f"{text!r} is not a YAML 1.2 {name}", node.start_mark)
+    return text
+
+
+def _core_int(loader: yaml.BaseLoader, node: yaml.ScalarNode) -> int:
+    text = _core_scalar(loader, node, "int")
+    try:
+        if text.startswith(("0o", "0x")):
+            return int(text[2:], 8 if text[1] == "o" else 16)
+        return int(text, 10)
+    except ValueError:  # beyond Python's limit on the digits of an int
+        raise yaml.constructor.ConstructorError(
+            None, None, f"a number of {len(text)} digits is too long", node.start_mark
+        ) from None
+
+
+def _core_float(loader: yaml.BaseLoader, node: yaml.ScalarNode) -> float:
+    text = _core_scalar(loader, node, "float")
+    special = text.lstrip("+-").lower()
+    if special == ".inf":
+        return -math.inf if text.startswith("-") else math.inf
+    return math.nan if special == ".nan" else float(text)
+
+
+def _core_bool(loader: yaml.BaseLoader, node: yaml.ScalarNode) -> bool:
+    return _core_scalar(loader, node, "bool").lower() == "true"
 
 
 class _Loader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]
-    """Safe YAML loader that reads ``1e5`` as a float and refuses duplicate keys."""
+    """Safe YAML loader with the YAML 1.2 core schema that refuses duplicate keys."""
+
+    yaml_implicit_resolvers: ClassVar[dict[str | None, list[tuple[str, re.Pattern[str]]]]] = {}
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict:
         seen: set[Any] = set()
@@ -77,12 +125,18 @@ class _Loader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[mi
 
 
 class _Dumper(getattr(yaml, "CSafeDumper", yaml.SafeDumper)):  # type: ignore[misc]
-    """Safe YAML dumper whose text quoting matches :class:`_Loader`."""
+    """Safe YAML dumper that quotes text which YAML 1.1 or YAML 1.2 would read as
+    anything but text (``"yes"``, ``"010"``, ``"1e5"``), so that either reads it back."""
 
 
-for _cls in (_Loader, _Dumper):
-    _cls.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT_12,
-                               list("-+0123456789."))
+for _name, _pattern, _first in _CORE_SCHEMA:
+    _tag = f"tag:yaml.org,2002:{_name}"
+    _first_chars = [*_first, ""] if _name == "null" else list(_first)
+    for _cls in (_Loader, _Dumper):  # the dumper keeps YAML 1.1's rules as well
+        _cls.add_implicit_resolver(_tag, _RESOLVE[_name], _first_chars)
+_Loader.add_constructor("tag:yaml.org,2002:int", _core_int)
+_Loader.add_constructor("tag:yaml.org,2002:float", _core_float)
+_Loader.add_constructor("tag:yaml.org,2002:bool", _core_bool)
 
 
 def line_map(text: str) -> dict[tuple[str | int, ...], int]:

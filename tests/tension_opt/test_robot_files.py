@@ -18,6 +18,7 @@ import tension_opt as to
 from tension_opt.cli import main
 from tension_opt.kinds import KINDS
 from tension_opt.robot import files as robot_files
+from tension_opt.robot.formats import parse_text
 from tension_opt.robot.presets import PUBLISHED, algae_harvester_from_parameters
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -335,3 +336,65 @@ def test_python_dash_m_tension_opt_robot_check(tmp_path: Path) -> None:
     bad = subprocess.run([sys.executable, "-m", "tension_opt", "check", str(path)],
                          capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and "kind: unknown kind 'hexapod'" in bad.stderr
+
+
+# ------------------------------------------------------------------ YAML 1.2 scalars
+# A plain scalar and its value under the YAML 1.2 core schema. The second half are text in
+# YAML 1.2 but numbers, booleans or dates in YAML 1.1 (PyYAML's default): 010 was 8,
+# 1:30 was 90, 1_000 was 1000, yes was True, 2001-12-14 a date.
+YAML_12 = {
+    "010": 10, "0100": 100, "-010": -10, "+7": 7, "0": 0, "0o10": 8, "0x10": 16,
+    "0xFf": 255, ".5": 0.5, "-.5": -0.5, "1e3": 1000.0, "1.": 1.0, "-0.0": -0.0,
+    "1E-3": 0.001, "5e-324": 5e-324, ".inf": math.inf, "-.Inf": -math.inf,
+    "+.INF": math.inf, ".NaN": math.nan, "true": True, "True": True, "FALSE": False,
+    "null": None, "~": None, "": None,
+    "1:30": "1:30", "1:30.5": "1:30.5", "1_000": "1_000", "1_000.5": "1_000.5",
+    "0b10": "0b10", "-0x10": "-0x10", "0o8": "0o8", "0x": "0x", "1e": "1e", ".": ".",
+    "yes": "yes", "no": "no", "on": "on", "off": "off", "y": "y", "Yes": "Yes",
+    "tRUE": "tRUE", "2001-12-14": "2001-12-14", "inf": "inf", "nan": "nan", "=": "=",
+    "<<": "<<",
+}
+
+
+@pytest.mark.parametrize("text", sorted(YAML_12))
+def test_yaml_plain_scalars_follow_the_yaml_1_2_core_schema(text: str) -> None:
+    got = parse_text(Path("robot.yaml"), f"v: {text}\n")["v"]
+    expected = YAML_12[text]
+    assert (type(got), repr(got)) == (type(expected), repr(expected))
+
+
+@pytest.mark.parametrize(("old", "new", "field", "value"), [
+    ("mass: 91.058", "mass: 010", "mass", 10.0),  # YAML 1.1: octal 8 kg
+    ("t_max: 5000.0", "t_max: 0100", "t_max", 100.0),  # YAML 1.1: 64 N
+    ("mass: 91.058", "mass: 0o10", "mass", 8.0),
+    ("mass: 91.058", "mass: 0x10", "mass", 16.0),
+    ("mass: 91.058", "mass: .5", "mass", 0.5),
+    ("mass: 91.058", "mass: 1e3", "mass", 1000.0),
+    ("name: CoGiRo", "name: yes", "name", "yes"),  # YAML 1.1: True, refused as a name
+    ("name: CoGiRo", "name: on", "name", "on"),
+    ("name: CoGiRo", "name: 1:30", "name", "1:30"),
+])
+def test_robot_file_numbers_are_yaml_1_2(old: str, new: str, field: str, value: object,
+                                        tmp_path: Path) -> None:
+    path, _ = _bad_file(tmp_path, old, new)
+    got = getattr(to.CableRobot.from_file(path), field)
+    assert (got if isinstance(got, str | float) else got.tolist()[0]) == value
+
+
+@pytest.mark.parametrize(("new", "shown"), [
+    ("mass: 1:30", "'1:30'"),  # YAML 1.1: 90 kg (base 60)
+    ("mass: 1_000", "'1_000'"), ("mass: 0b10", "'0b10'"), ("mass: yes", "'yes'"),
+    ("mass: 1:30.5", "'1:30.5'"),
+])
+def test_yaml_1_1_only_numbers_are_text_refused_where_a_number_is_needed(
+        new: str, shown: str, tmp_path: Path) -> None:
+    path, _ = _bad_file(tmp_path, "mass: 91.058", new)
+    with pytest.raises(to.RobotFileError,
+                       match=rf"mass: input should be a valid number \(got {shown}\)"):
+        to.CableRobot.from_file(path)
+
+
+def test_true_is_a_boolean_and_refused_as_a_name(tmp_path: Path) -> None:
+    path, _ = _bad_file(tmp_path, "name: CoGiRo", "name: true")
+    with pytest.raises(to.RobotFileError, match=r"name: input should be a valid string"):
+        to.CableRobot.from_file(path)
