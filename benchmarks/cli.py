@@ -45,6 +45,7 @@ import tension_opt
 from benchmarks import harness, report, studies
 from benchmarks.scenarios import PROBLEMS, SCENARIOS
 from benchmarks.study_points import ROBOT_OVERRIDES, parameter_names
+from tension_opt import warmup
 from tension_opt.errors import BackendNotAvailableError
 from tension_opt.workspace.executors import DASK_ADDRESS_VARIABLE, get_executor
 
@@ -385,6 +386,16 @@ def _study(args: argparse.Namespace) -> int:
     return 0
 
 
+def _compile_first(progress: bool) -> None:
+    """The main job's compile step, before the cells: every kernel family compiled (or
+    loaded from the disk cache) in two processes, its own progress line, the seconds."""
+    start = time.perf_counter()
+    took = warmup.warm(jobs=2, progress=progress)
+    slowest = max(took, key=took.__getitem__)
+    print(f"kernels ready in {time.perf_counter() - start:.0f} s ({len(took)} families; "
+          f"slowest {slowest}: {took[slowest]:.0f} s)", file=sys.stderr)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``python -m benchmarks``; returns the process exit code.
 
@@ -398,7 +409,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         if args.command is None:
-            return _run(parser.parse_args([*argv, "run"]))
+            run = parser.parse_args([*argv, "run"])
+            _compile_first(progress=not run.no_progress)
+            return _run(run)
         if args.command == "run":
             return _run(args)
         if args.command == "report":

@@ -32,6 +32,7 @@ from pathlib import Path
 
 from tension_opt import compiled_cache
 
+from . import warmup as warmup  # registers its kernel families with tension_opt's warm-up
 from .elastic import (
     flexibility,
     length_derivative,

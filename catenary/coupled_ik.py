@@ -38,6 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt import CableRobot
 from tension_opt.kernels import closed_form as cf
+from tension_opt.kernels.first_use import announce
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, rotation
 from tension_opt.problem.form import TensionProblem, as_problem
 from tension_opt.status import STATUS_DTYPE, Status
@@ -459,6 +460,7 @@ class CoupledIK:
         self.backend, self.options = backend, dict(options)
         self.tol, self.max_iter, self.warm_start = float(tol), max_iter, bool(warm_start)
         self._local = threading.local()
+        announce("coupled sag IK", coupled_pose)
         self._data = self._pack() if self._compiled() else None
         m, n = robot.m, robot.dof
         self._work = work_floats(m, n)

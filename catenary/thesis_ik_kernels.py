@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 import tension_opt
 from tension_opt.errors import TensionOptError
 from tension_opt.kernels.closed_form import solve_one
+from tension_opt.kernels.first_use import announce
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, kind_code, rotation
 from tension_opt.kernels.launch import entry_point
 from tension_opt.problem.form import TensionProblem, as_problem
@@ -178,6 +179,7 @@ class CompiledThesis:
         self.work = robot.dof * robot.m + 2 * robot.dof + 5
         self.no_wrench = np.zeros(robot.dof)
         m = robot.m
+        announce("thesis sag IK", thesis_pose, thesis_closed_form)
         # Called with exactly these types (contiguous float64 arrays, see solve).
         self._thesis_pose = entry_point(
             thesis_pose, self.kind, self.anchors, self.attachments, self.com, self.weight,

@@ -1,10 +1,11 @@
-"""The command line: ``python -m tension_opt check FILE`` and ``python -m tension_opt from-caspr
-...``.
+"""The command line: ``python -m tension_opt check | from-caspr | warmup``.
 
 ``check`` validates a robot file (YAML or JSON) and prints a summary of the robot with
 its feasibility and capacity margin at the home pose; exit code 0 for a valid file, 2
 with the validation message for a bad one. ``from-caspr`` writes a robot file from a
-CASPR model (:func:`tension_opt.robot.caspr.load_caspr`).
+CASPR model (:func:`tension_opt.robot.caspr.load_caspr`). ``warmup`` compiles every
+kernel ahead, with a progress bar and the time each family took
+(:mod:`tension_opt.warmup`).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
+from tension_opt import warmup
 from tension_opt.distribution.entry import distribute
 from tension_opt.errors import RobotFileError, TensionOptError
 from tension_opt.robot import CableRobot
@@ -111,6 +113,19 @@ def _from_caspr(args: argparse.Namespace) -> int:
     return 0
 
 
+def _warmup(args: argparse.Namespace) -> int:
+    try:
+        took = warmup.warm(args.family or None, jobs=args.jobs, progress=not args.no_progress)
+    except TensionOptError as error:
+        print(error, file=sys.stderr)
+        return INVALID
+    width = max(len(name) for name in took)
+    for name, seconds in took.items():
+        print(f"{name:<{width}}  {seconds:6.1f} s")
+    print(f"{'all, one after the other':<{width}}  {sum(took.values()):6.1f} s")
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code (0 valid, 2 invalid)."""
     parser = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n\n")[0])
@@ -129,6 +144,15 @@ def main(argv: Sequence[str] | None = None) -> int:
                        "file's default_cable_set)")
     caspr.add_argument("--name", default=None, help="robot name (default: from the file)")
     caspr.set_defaults(run=_from_caspr)
+    warm = commands.add_parser(
+        "warmup", help="compile every kernel ahead (once per installation), with the "
+        "time each family took")
+    warm.add_argument("--family", nargs="+", default=None,
+                      help="only these families (default: all)")
+    warm.add_argument("--jobs", type=int, default=2,
+                      help="processes compiling at once (default 2)")
+    warm.add_argument("--no-progress", action="store_true", help="no progress bar")
+    warm.set_defaults(run=_warmup)
     args = parser.parse_args(argv)
     return int(args.run(args))
 

@@ -124,6 +124,9 @@ class ClosedFormBackend(Backend):
         reports as optimal, leaving the judgement to the solution.
         """
         from tension_opt.kernels import closed_form, launch
+        from tension_opt.kernels.first_use import announce
+
+        announce("closed form", closed_form.solve_forms_serial)
 
         N, m = form.N, form.m
         v = np.ones((1, m)) if form.minmax is None else np.asarray(

@@ -157,6 +157,9 @@ def measures(batch: ScaledBatch, x: NDArray, mult: Multipliers
     :func:`measures_reference` is its numpy reference."""
     from tension_opt.kernels.arrays import frozen
     from tension_opt.kernels.certificate import batch_measures
+    from tension_opt.kernels.first_use import announce
+
+    announce("certificate", batch_measures)
 
     # All read: one array type for every call (see tension_opt.kernels.arrays).
     arrays = [frozen(a) for a in (batch.P, batch.c, batch.Aeq, batch.beq, batch.G, batch.h,

@@ -256,7 +256,10 @@ def compiled_scaling(form: StandardForm) -> Scaling:
     """:func:`scaling_reference` by the compiled kernel
     (:mod:`tension_opt.kernels.scaling`; the method is its reference)."""
     from tension_opt.kernels.arrays import frozen
+    from tension_opt.kernels.first_use import announce
     from tension_opt.kernels.scaling import batch_scaling
+
+    announce("scaling", batch_scaling)
 
     vmax = 0.0
     if form.minmax is not None:

@@ -144,7 +144,9 @@ class CertifiedBatch:
             STATUS_VALUES,
             certified_poses,
         )
+        from tension_opt.kernels.first_use import announce
 
+        announce("certified pass", certified_poses)
         wrench = self.wrench if len(self.wrench) == 1 else self.wrench[sl]
         mult = self.multipliers
         objective, residual, violation, infeasibility, primal, dual, gap = (

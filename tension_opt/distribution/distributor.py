@@ -143,7 +143,9 @@ class Distributor:
         closed = self._closed_form_path()
         if form.G is None and (closed or self._daqp_path()):
             from tension_opt.kernels import closed_form
+            from tension_opt.kernels.first_use import announce
 
+            announce("real-time distributor", closed_form.solve_one)
             self._data = self._pack()
             self._kernels = closed_form
             self._work_size = int(closed_form.work_size(robot.m, robot.dof))

@@ -420,8 +420,10 @@ class CableRobot:
         where it applies, else by those methods; the same values to rounding and the
         same errors."""
         p = self.as_poses(poses)
+        from tension_opt.kernels.first_use import announce
         from tension_opt.kernels.geometry import robot_geometry  # loads numba when first used
 
+        announce("robot geometry", robot_geometry)
         compiled = robot_geometry(self, p, wrench)
         return compiled or (self.structure_matrices(p), self.required_wrench(p, wrench))
 

@@ -1,0 +1,52 @@
+"""The kernel families of ``catenary`` for ``python -m tension_opt warmup``
+(:mod:`tension_opt.warmup`), registered when ``catenary`` is imported: the single
+cable (few cables one at a time, batches side by side in the vector unit, the
+bracketing search), the thesis convention's sag inverse kinematics of one pose, and
+the coupled model's."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tension_opt import warmup
+
+__all__: list[str] = []
+
+
+def _single_cable() -> None:
+    from catenary.solve import solve_forces, solve_length
+
+    for count in (4, 64):  # one at a time, and side by side
+        x, z = np.linspace(5.0, 40.0, count), np.linspace(-3.0, 8.0, count)
+        w = np.full(count, 1.5)
+        for EA in (np.inf, 1e6):
+            solve_length(x, z, np.full(count, 2e3), w, EA=EA)
+            solve_length(x, z, np.full(count, 2e3), w, EA=EA, end="A")
+            solve_forces(x, z, np.hypot(x, z) * 1.01, w, EA=EA)
+
+
+def _thesis_ik() -> None:
+    from catenary.inverse import inverse_kinematics
+    from catenary.thesis_ik import ThesisIK
+    from tension_opt.robot import presets
+
+    robot = presets.algae_harvester()
+    pose = np.array([[5.0, 3.0, 0.5]])
+    inverse_kinematics(robot, pose, model="thesis")
+    ThesisIK(robot)(pose[0])
+
+
+def _coupled_ik() -> None:
+    from catenary.coupled_ik import CoupledIK
+    from catenary.inverse import inverse_kinematics
+    from tension_opt.robot import presets
+
+    robot = presets.algae_harvester()
+    pose = np.array([[5.0, 3.0, 0.5]])
+    inverse_kinematics(robot, pose, model="coupled")
+    CoupledIK(robot)(pose[0])
+
+
+warmup.register("catenary: single cable", _single_cable)
+warmup.register("catenary: thesis sag IK", _thesis_ik)
+warmup.register("catenary: coupled sag IK", _coupled_ik)

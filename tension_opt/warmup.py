@@ -1,0 +1,176 @@
+"""Compile every kernel ahead: ``python -m tension_opt warmup``.
+
+numba compiles a kernel on its first call and keeps the machine code in its disk cache
+(``cache=True``), so each kernel costs its compile time once per installation (and
+again after a change to its sources, :mod:`tension_opt.compiled_cache`). Without a
+warm-up that time falls on the first call that needs the kernel; this module runs one
+small representative call of each *family* of kernels instead, so that later calls,
+in any process, load the machine code from the cache.
+
+A family is a name and a function that makes the calls that compile it. The toolkit's
+own are in :data:`FAMILIES`; a package built on ``tension_opt`` adds its own with
+:func:`register` when it is imported (``catenary`` does), and the command line imports
+the installed ones of :data:`PLUGINS` so that ``warmup`` compiles them too. Families
+run in separate processes (``jobs``), each compiling its own kernels: on two cores the
+warm-up takes about half as long as one after the other.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import multiprocessing
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+
+import numpy as np
+
+__all__ = ["FAMILIES", "PLUGINS", "register", "warm", "warm_family"]
+
+#: Packages whose kernel families the command line warms too, where installed.
+PLUGINS: tuple[str, ...] = ("catenary",)
+
+
+def _study_poses(count: int) -> np.ndarray:
+    rng = np.random.default_rng(0)
+    return np.column_stack([rng.uniform(-30, 30, count), rng.uniform(-20, 20, count),
+                            np.full(count, 0.5)])
+
+
+def _spatial_poses(count: int) -> np.ndarray:
+    rng = np.random.default_rng(0)
+    poses = np.zeros((count, 6))
+    poses[:, :3] = rng.uniform(-0.3, 0.3, (count, 3))
+    return poses
+
+
+def _geometry() -> None:
+    from tension_opt.robot import presets
+
+    for robot, poses in ((presets.algae_harvester(), _study_poses(8)),
+                         (presets.cogiro(), _spatial_poses(8))):
+        robot.equilibrium(poses)
+
+
+def _closed_form() -> None:
+    from tension_opt.distribution.entry import distribute
+    from tension_opt.problem.form import TensionProblem
+    from tension_opt.robot import presets
+
+    study, cogiro = presets.algae_harvester(), presets.cogiro()
+    distribute(study, _study_poses(8), "min_sum", "closed_form")
+    distribute(cogiro, _spatial_poses(8), "min_norm", "closed_form")
+    smoothed = TensionProblem("min_norm", smoothing=1.0)
+    distribute(study, _study_poses(8), smoothed, "closed_form")
+
+
+def _certified_pass() -> None:
+    from tension_opt.distribution.entry import distribute
+    from tension_opt.robot import presets
+
+    # Beyond one chunk (4096 poses): the certified compiled pass, with its lanes.
+    distribute(presets.algae_harvester(), _study_poses(4200), chunk_size=4096)
+    distribute(presets.cogiro(), _spatial_poses(4200), chunk_size=4096)
+
+
+def _distributor() -> None:
+    from tension_opt.distribution.distributor import Distributor
+    from tension_opt.robot import presets
+
+    Distributor(presets.algae_harvester())(_study_poses(1)[0])
+    Distributor(presets.cogiro(), "min_norm")(_spatial_poses(1)[0])
+
+
+def _generic_backends() -> None:
+    from tension_opt.backends.registry import available_backends
+    from tension_opt.distribution.entry import distribute
+    from tension_opt.problem.form import TensionProblem
+    from tension_opt.robot import presets
+
+    study = presets.algae_harvester()
+    backend = "qpsolvers:daqp" if "qpsolvers:daqp" in available_backends() else "auto"
+    # The scaling and certificate kernels of every generic solve, and DAQP's own.
+    distribute(study, _study_poses(8), "min_norm", backend)
+    distribute(study, _study_poses(8), TensionProblem("min_norm", smoothing=1.0), backend)
+
+
+#: The toolkit's kernel families, in the order the command line runs them.
+FAMILIES: dict[str, Callable[[], None]] = {
+    "robot geometry": _geometry,
+    "closed form": _closed_form,
+    "certified pass": _certified_pass,
+    "real-time distributor": _distributor,
+    "certificate of generic solvers": _generic_backends,
+}
+
+
+def register(name: str, compile_family: Callable[[], None]) -> None:
+    """Add a kernel family to :data:`FAMILIES` (a package built on ``tension_opt``
+    registers its own when imported)."""
+    FAMILIES[name] = compile_family
+
+
+def _load_plugins() -> None:
+    for name in PLUGINS:
+        if importlib.util.find_spec(name) is not None:
+            importlib.import_module(name)
+
+
+def warm_family(name: str) -> float:
+    """Run family ``name``'s calls in this process; the seconds they took."""
+    _load_plugins()
+    start = time.perf_counter()
+    FAMILIES[name]()
+    return time.perf_counter() - start
+
+
+def warm(names: Sequence[str] | None = None, jobs: int = 2,
+         progress: bool = True) -> dict[str, float]:
+    """Compile the kernels of the families ``names`` (default: every one), in up to
+    ``jobs`` fresh processes at once.
+
+    Parameters
+    ----------
+    names : sequence of str, optional
+        Families of :data:`FAMILIES` (after the installed plugins registered theirs).
+    jobs : int
+        Processes at once (1: in this process, one family after the other).
+    progress : bool
+        Show a progress bar (tqdm, on standard error).
+
+    Returns
+    -------
+    dict
+        Seconds each family took, by name, in the order of ``names``.
+    """
+    from tqdm.auto import tqdm
+
+    from tension_opt.checks import whole_positive
+    from tension_opt.errors import InvalidInputError
+
+    jobs = whole_positive("jobs", jobs)
+    _load_plugins()
+    chosen = list(FAMILIES) if names is None else list(names)
+    unknown = [n for n in chosen if n not in FAMILIES]
+    if unknown:
+        raise InvalidInputError(f"unknown kernel families {unknown}; known: {list(FAMILIES)}")
+    took: dict[str, float] = {}
+    bar = tqdm(total=len(chosen), desc="compiling kernels", unit="family",
+               disable=not progress)
+    if jobs == 1:
+        for name in chosen:
+            bar.set_postfix_str(name)
+            took[name] = warm_family(name)
+            bar.update()
+    else:
+        # Fresh interpreters (spawn): no forked copy of a parent's threading layer.
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(jobs, mp_context=context) as pool:
+            futures = {pool.submit(warm_family, name): name for name in chosen}
+            for future in as_completed(futures):
+                took[futures[future]] = future.result()
+                bar.set_postfix_str(futures[future])
+                bar.update()
+    bar.close()
+    return {name: took[name] for name in chosen}
