@@ -152,9 +152,9 @@ def test_mypy_finds_no_error() -> None:
 
 
 #: Calls into these modules are not steps of the flow (errors, statuses, checks, the
-#: numbers the layers share, the kernels' array helpers).
+#: numbers the layers share, the kernels' array helpers, the first-use notice).
 GROUND = {"errors", "status", "checks", "kinds", "tolerances", "kernels.arrays",
-          "kernels.launch"}
+          "kernels.launch", "kernels.first_use"}
 
 
 def _modules_visited(call: Callable[[], object]) -> list[str]:
