@@ -8,11 +8,14 @@ its unit vector. The equations of motion are the Newton-Euler equations of
 
 integrated with :func:`scipy.integrate.solve_ivp` over the state (pose coordinates,
 velocity coordinates); a rotation vector moves with ``phi' = J(phi)^-1 omega``.
-The tensions are interpolated in time between their samples.
+The tensions are interpolated in time between their samples, by default with a
+shape-preserving cubic (PCHIP) that never leaves the range of two neighbouring
+samples, so the simulated cables keep the bounds the samples keep.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -20,15 +23,17 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import solve_ivp
-from scipy.interpolate import CubicSpline, interp1d
+from scipy.interpolate import CubicSpline, PchipInterpolator, interp1d
 
 from tension_opt.checks import as_finite, check_positive
 from tension_opt.dynamics.rotation import pose_rates
 from tension_opt.dynamics.timed import check_times
 from tension_opt.dynamics.wrench import inertia_terms
 from tension_opt.errors import InvalidInputError
+from tension_opt.problem.form import typical_tension
 from tension_opt.robot import CableRobot
 from tension_opt.status import Status
+from tension_opt.tolerances import FEASIBILITY_TOL
 
 __all__ = ["SimulationResult", "simulate"]
 
@@ -55,6 +60,10 @@ class SimulationResult:
     rtol, atol : float
         The integrator's relative and absolute tolerances (state units: m, rad, m/s,
         rad/s).
+    tension_at : callable
+        The tensions the simulation applied (N) at a time or an array of times (s),
+        shape (m,) or (len(times), m), between ``times[0]`` and ``times[-1]``: the
+        interpolant of the given tensions, with rounding below zero clipped to 0.
     """
 
     times: NDArray
@@ -65,6 +74,7 @@ class SimulationResult:
     evaluations: int
     rtol: float
     atol: float
+    tension_at: Callable[[Any], NDArray]
 
     @property
     def success(self) -> bool:
@@ -80,12 +90,18 @@ class SimulationResult:
         return frame
 
 
+_INTERPOLATIONS = ("pchip", "linear", "cubic")
+
+
 def _tension_function(times: NDArray, tensions: NDArray, interpolation: str) -> Any:
+    if interpolation not in _INTERPOLATIONS:
+        raise InvalidInputError(
+            f"interpolation must be one of {list(_INTERPOLATIONS)}, got {interpolation!r}")
+    if interpolation == "pchip" and times.size >= 3:
+        return PchipInterpolator(times, tensions, axis=0, extrapolate=False)
     if interpolation == "cubic" and times.size >= 3:
         return CubicSpline(times, tensions, axis=0, bc_type="not-a-knot")
-    if interpolation in ("linear", "cubic"):
-        return interp1d(times, tensions, axis=0, assume_sorted=True)
-    raise InvalidInputError(f'interpolation must be "cubic" or "linear", got {interpolation!r}')
+    return interp1d(times, tensions, axis=0, assume_sorted=True)
 
 
 def _check_inputs(robot: CableRobot, times: ArrayLike, tensions: ArrayLike,
@@ -96,10 +112,6 @@ def _check_inputs(robot: CableRobot, times: ArrayLike, tensions: ArrayLike,
     if T.shape != (t.size, robot.m):
         raise InvalidInputError(
             f"tensions must have shape ({t.size}, {robot.m}), one row per time, got {T.shape}")
-    if (T < 0).any():
-        k, i = (int(v) for v in np.argwhere(T < 0)[0])
-        raise InvalidInputError(
-            f"tensions[{k}, {i}] = {T[k, i]!r} is negative: cables can only pull")
     q0 = robot.as_poses(initial_pose)
     if q0.shape[0] != 1:
         raise InvalidInputError(f"initial_pose must be one pose ({robot.dof},), got "
@@ -109,6 +121,45 @@ def _check_inputs(robot: CableRobot, times: ArrayLike, tensions: ArrayLike,
         raise InvalidInputError(
             f"initial_velocity must have shape ({robot.dof},), got {v0.shape}")
     return t, T, q0[0], v0
+
+
+def _check_body(robot: CableRobot, pose: NDArray, wrench: ArrayLike | None) -> NDArray | None:
+    """The external wrench checked (None without one); a singular mass matrix refused."""
+    mass, _ = inertia_terms(robot, pose)
+    if np.linalg.matrix_rank(mass[0]) < robot.dof:
+        raise InvalidInputError(
+            "the platform's mass matrix is singular: give the robot a positive definite "
+            "inertia (CableRobot(inertia=...)) to simulate its rotation")
+    ext = None if wrench is None else as_finite("wrench", wrench)
+    if ext is not None and ext.shape != (robot.dof,):
+        raise InvalidInputError(f"wrench must have shape ({robot.dof},), got {ext.shape}")
+    return ext
+
+
+def _pulling(robot: CableRobot, tensions: NDArray, pose: NDArray,
+             wrench: NDArray | None) -> NDArray:
+    """The tensions with rounding below zero clipped to 0; a real push refused.
+
+    A tension is rounding when it is above ``-FEASIBILITY_TOL`` times its sample's
+    tension scale, the tolerance of a solution's certificate on its bounds: the larger
+    of the sample's largest tension and the typical tension of the initial pose (the
+    tension that holds its static wrench, or the largest lower bound,
+    :func:`tension_opt.problem.form.typical_tension`)."""
+    if not (tensions < 0).any():
+        return tensions
+    A = robot.structure_matrices(pose[None])
+    lb = np.broadcast_to(robot.t_min, (1, robot.m))
+    static = typical_tension(A, robot.required_wrench(pose[None], wrench), lb)
+    scale = np.maximum(np.abs(tensions).max(axis=1), static[0])
+    tol = FEASIBILITY_TOL * scale[:, None]
+    pushes = tensions < -tol
+    if pushes.any():
+        k, i = (int(v) for v in np.argwhere(pushes)[0])
+        raise InvalidInputError(
+            f"tensions[{k}, {i}] = {float(tensions[k, i])!r} is negative beyond rounding "
+            f"(-{float(tol[k, 0]):.3g} N, {FEASIBILITY_TOL:g} of the sample's tension "
+            f"scale): cables can only pull")
+    return np.maximum(tensions, 0.0)
 
 
 class _EquationsOfMotion:
@@ -143,7 +194,7 @@ def simulate(
     initial_velocity: ArrayLike,
     *,
     wrench: ArrayLike | None = None,
-    interpolation: Literal["cubic", "linear"] = "cubic",
+    interpolation: Literal["pchip", "linear", "cubic"] = "pchip",
     rtol: float = 1e-10,
     atol: float = 1e-12,
     method: str = "DOP853",
@@ -158,7 +209,10 @@ def simulate(
         Strictly increasing times (s) of the tension samples; the poses are reported
         at these times, from ``times[0]``.
     tensions : array_like, shape (N, m)
-        Cable tensions (N) at ``times``, >= 0.
+        Cable tensions (N) at ``times``, >= 0. A tension below zero by less than
+        ``FEASIBILITY_TOL`` (1e-6) of its sample's tension scale (the larger of the
+        sample's largest tension and the initial pose's typical tension) is rounding,
+        as a solution's certificate allows it, and is taken as 0.
     initial_pose : array_like, shape (n,)
         Pose at ``times[0]`` (m, rad).
     initial_velocity : array_like, shape (n,)
@@ -166,9 +220,17 @@ def simulate(
         for ``spatial6``).
     wrench : array_like, shape (n,), optional
         Constant external wrench besides gravity (N, N m).
-    interpolation : {"cubic", "linear"}
-        Tensions between the samples: a not-a-knot cubic spline (smooth, for the
-        integrator) or linear.
+    interpolation : {"pchip", "linear", "cubic"}
+        Tensions between the samples. ``"pchip"`` (default): scipy's
+        :class:`~scipy.interpolate.PchipInterpolator`, a shape-preserving piecewise
+        cubic with continuous first derivative; it is monotone between two samples and
+        never leaves their range, so tensions that keep their bounds at the samples
+        keep them in between (no cable pushes). ``"linear"`` keeps them too.
+        ``"cubic"``: a not-a-knot cubic spline (twice differentiable), which overshoots
+        where the tensions turn sharply: between samples it can leave the bounds and
+        make a cable push (by 870 N on the study robot's min_sum crossing). PCHIP's
+        second derivative jumps at the samples, so the 8th-order integrator takes
+        about ten times the steps it takes on the spline.
     rtol, atol : float
         Integrator tolerances (default 1e-10 relative, 1e-12 absolute in m, rad, m/s).
     method : str
@@ -182,21 +244,17 @@ def simulate(
     Raises
     ------
     InvalidInputError
-        On non-increasing or non-finite times, tensions of the wrong shape, negative
-        or non-finite tensions, bad initial state or a singular mass matrix.
+        On non-increasing or non-finite times, tensions of the wrong shape, tensions
+        negative beyond rounding or non-finite, bad initial state, an unknown
+        interpolation or a singular mass matrix.
     """
     t, T, q0, v0 = _check_inputs(robot, times, tensions, initial_pose, initial_velocity)
     check_positive("rtol", rtol)
     check_positive("atol", atol)
-    mass, _ = inertia_terms(robot, q0)
-    if np.linalg.matrix_rank(mass[0]) < robot.dof:
-        raise InvalidInputError(
-            "the platform's mass matrix is singular: give the robot a positive definite "
-            "inertia (CableRobot(inertia=...)) to simulate its rotation")
-    ext = None if wrench is None else as_finite("wrench", wrench)
-    if ext is not None and ext.shape != (robot.dof,):
-        raise InvalidInputError(f"wrench must have shape ({robot.dof},), got {ext.shape}")
-    rhs = _EquationsOfMotion(robot, _tension_function(t, T, interpolation), ext)
+    ext = _check_body(robot, q0, wrench)
+    T = _pulling(robot, T, q0, ext)
+    tension_at = _tension_function(t, T, interpolation)
+    rhs = _EquationsOfMotion(robot, tension_at, ext)
     sol = solve_ivp(rhs.derivative, (t[0], t[-1]), np.concatenate([q0, v0]), method=method,
                     t_eval=t, rtol=rtol, atol=atol)
     n = robot.dof
@@ -204,4 +262,4 @@ def simulate(
     states[: sol.y.shape[1]] = sol.y.T
     status = Status.CONVERGED if sol.status == 0 else Status.NOT_CONVERGED
     return SimulationResult(t, states[:, :n], states[:, n:], str(status), str(sol.message),
-                            int(sol.nfev), float(rtol), float(atol))
+                            int(sol.nfev), float(rtol), float(atol), tension_at)

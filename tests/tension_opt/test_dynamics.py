@@ -245,6 +245,50 @@ def test_open_loop_simulation_follows_the_study_path(study_motion) -> None:
     assert np.linalg.norm(drift.poses[-1] - traj.poses[-1]) > 1.0  # metres off
 
 
+@pytest.fixture(scope="module")
+def slack_min_sum(study_motion) -> tuple[to.CableRobot, dyn.TimedTrajectory, np.ndarray,
+                                         dyn.SimulationResult]:
+    """The study's motion with t_min = 0 and min_sum: two cables go slack while the
+    platform crosses, their optimal tensions rounded to about -1e-13 N at the bound;
+    and its simulation with the default interpolation."""
+    _, traj = study_motion
+    robot = to.presets.algae_harvester(t_min=0.0)
+    sol = dyn.distribute_trajectory(robot, traj, "min_sum")
+    assert (sol.status == "optimal").all()
+    sim = dyn.simulate(robot, traj.times, sol.tensions, traj.poses[0], traj.velocities[0])
+    return robot, traj, sol.tensions, sim
+
+
+def test_simulation_takes_optimal_tensions_rounded_below_a_zero_bound(slack_min_sum) -> None:
+    robot, traj, T, sim = slack_min_sum
+    assert (T < 0).any() and T.min() > -1e-9  # rounding within the certificate
+    assert sim.success
+    assert np.linalg.norm(sim.poses - traj.poses, axis=1).max() < 1e-3  # m
+    # The rounding is clipped to 0, a real push (1 N on a tension scale of 1e4 N) refused.
+    assert np.array_equal(sim.tension_at(traj.times), np.maximum(T, 0.0))
+    pushed = T.copy()
+    pushed[300, 1] = -1.0
+    with pytest.raises(to.InvalidInputError, match=r"tensions\[300, 1\] = -1.0 .*can only pull"):
+        dyn.simulate(robot, traj.times, pushed, traj.poses[0], traj.velocities[0])
+
+
+def test_interpolated_tensions_stay_within_their_bounds(slack_min_sum) -> None:
+    """Between the samples the simulated cables neither push nor leave the samples'
+    range: the default interpolation is shape-preserving (PCHIP)."""
+    robot, traj, T, sim = slack_min_sum
+    fine = np.linspace(traj.times[0], traj.times[-1], 50 * traj.N + 1)
+    applied = sim.tension_at(fine)
+    assert applied.shape == (fine.size, robot.m)
+    assert applied.min() >= robot.t_min.min()  # 0: no cable pushes
+    assert (applied <= robot.t_max).all()
+    assert (applied <= T.max(axis=0)).all()
+    # Each interpolated tension within the range of its two neighbouring samples.
+    k = np.clip(np.searchsorted(traj.times, fine, side="right") - 1, 0, traj.N - 2)
+    clipped = np.maximum(T, 0.0)
+    low, high = np.minimum(clipped[k], clipped[k + 1]), np.maximum(clipped[k], clipped[k + 1])
+    assert ((applied >= low) & (applied <= high)).all()
+
+
 def test_simulation_of_a_spatial_robot_at_rest_stays_put() -> None:
     robot = to.presets.cogiro()
     pose = np.array([0.3, -0.2, 2.1, 0.05, -0.03, 0.1])
@@ -277,6 +321,8 @@ def test_bad_input_raises_the_packages_error(study_motion) -> None:
                      traj.poses[0], np.zeros(3))
     with pytest.raises(to.InvalidInputError, match="initial_velocity"):
         dyn.simulate(robot, traj.times, T, traj.poses[0], np.zeros(4))
+    with pytest.raises(to.InvalidInputError, match="interpolation must be one of"):
+        dyn.simulate(robot, traj.times, T, traj.poses[0], np.zeros(3), interpolation="spline")
     with pytest.raises(to.InvalidInputError, match="velocities"):
         dyn.required_wrench(robot, traj.poses, traj.velocities[:5], traj.accelerations)
     with pytest.raises(to.InvalidInputError, match="accelerations"):
