@@ -419,9 +419,10 @@ class Distributor:
                                              k, work)
             if k < N:
                 prev = last if np.isfinite(last).all() else None
+                # The pose's wrench: its row, or the one for every pose (w is (1, n)).
                 sol = distribute(self.robot, p[k], self.problem, self.backend,
-                                 wrench=None if wrench is None or np.ndim(wrench) < 2
-                                 else np.asarray(wrench)[k], previous=prev, **self.options)
+                                 wrench=None if wrench is None else w[min(k, len(w) - 1)],
+                                 previous=prev, **self.options)
                 T[k], info[k] = sol.tensions[0], (sol.unique[0], sol.residual[0],
                                                   sol.infeasibility[0])
                 fallback[k] = Status(sol.status[0])

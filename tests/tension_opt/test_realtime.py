@@ -227,6 +227,47 @@ def test_streams_match_the_sequential_mode_of_distribute(problem):
                                              previous=start).tensions[0], rtol=REL)
 
 
+@pytest.mark.parametrize("problem", [
+    to.TensionProblem("min_sum", smoothing=1e-3),
+    to.TensionProblem("min_norm", smoothing=0.5, rate_limit=200.0),
+    to.TensionProblem("min_sum"),
+])
+@pytest.mark.parametrize("wrench", [[3.0, -2.0, -50.0], [10.0, 0.0, 0.0]])
+def test_a_batch_with_one_wrench_keeps_it_on_the_poses_the_numpy_path_answers(problem,
+                                                                             wrench):
+    """A batch (N, n) with one wrench (n,) for every pose: the poses the compiled loop
+    hands to the numpy path (every cable horizontal at the drawing points' height: the
+    structure matrix loses its vertical row) hold the wrench as single calls and
+    ``distribute`` do. Without gravity the wrench is the whole load: pulling down, the
+    poses below are optimal and those at the drawing points' height infeasible; pulling
+    sideways, the other way round."""
+    robot = presets.algae_harvester(g=0.0)
+    top = robot.anchors[0, 2]
+    t = np.linspace(0.0, 1.0, 12)
+    path = np.column_stack([6 * np.sin(4 * t), 4 * np.cos(3 * t), 3.0 + 0 * t])
+    path[[3, 4, 8], 2] = top
+    w = np.array(wrench)
+    got = to.Distributor(robot, problem)(path, wrench=w)
+    assert not got.compiled[[3, 4, 8]].any() and got.compiled[[0, 1, 2, 5, 6, 7]].all()
+    single = to.Distributor(robot, problem)
+    last = None  # pose by pose as a stream: smoothed against the last optimal answer
+    for k, pose in enumerate(path):
+        prev = last if problem.is_sequential else None
+        expected = to.distribute(robot, pose, problem, wrench=w, previous=prev)
+        one = single(pose, wrench=w)
+        for answer in (got.status[k], one.status):
+            assert answer == expected.status[0], k
+        for tensions in (got.tensions[k], one.tensions):
+            np.testing.assert_allclose(tensions, expected.tensions[0], rtol=0, atol=1e-9)
+        if expected.status[0] == to.Status.OPTIMAL:
+            last = expected.tensions[0]
+            A = robot.structure_matrices(pose)[0]
+            b = robot.required_wrench(pose, w)[0]
+            assert np.linalg.norm(A @ got.tensions[k] - b) <= 1e-9 * np.linalg.norm(w)
+    assert (got.status == to.Status.OPTIMAL).sum() >= 3  # both kinds of answer seen
+    assert (got.status == to.Status.INFEASIBLE).sum() >= 3
+
+
 def test_other_backends_fall_back_to_distribute():
     robot = presets.cogiro()
     p = poses_of(robot, 1, 5)
