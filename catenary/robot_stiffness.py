@@ -20,7 +20,10 @@ as ``df_i = -K_i db_i``, ``K_i`` a symmetric 3x3 stiffness:
     the analytic 2x2 in-plane stiffness :func:`catenary.stiffness` of the catenary end
     (``d(H, V)/d(x, z)``), plus the out-of-plane term ``H / x``: the cable's vertical
     plane turns about the drawing point. A vertical cable (``x = 0``) has the limit
-    ``H / x = 1 / (dx/dH)`` in every horizontal direction.
+    ``H / x = 1 / (dx/dH)`` in every horizontal direction. ``H / x`` is taken as
+    ``1 / (x/H)`` with ``x/H`` the catenary's own span per unit ``H`` (even in ``H``,
+    no rounded ``H`` over a tiny span: :func:`across_stiffness`), continuous into that
+    limit.
 
 With the attachment moving as ``db_i = dt - [r_i]x dtheta`` (``r_i = R a_i``), the
 spatial stiffness is ``K6 = sum_i J_i^T K_i J_i - G`` with ``J_i = [I, -[r_i]x]`` and
@@ -53,7 +56,7 @@ from tension_opt.backends import Backend
 from tension_opt.problem.form import Objective
 from tension_opt.status import Status, status_array
 
-from .elastic import flexibility, stiffness
+from .elastic import axial_compliance, evaluate, stiffness
 from .errors import InvalidCableError
 from .geometry import (
     E_Z,
@@ -69,6 +72,7 @@ from .inverse import inverse_kinematics
 __all__ = [
     "MODELS",
     "StiffnessResult",
+    "across_stiffness",
     "assemble_stiffness",
     "catenary_cable_stiffness",
     "cross_matrix",
@@ -119,6 +123,44 @@ def straight_cable_stiffness(unit: FloatArray, lengths: FloatArray, tensions: Fl
             + (tensions / lengths)[..., None, None] * np.eye(3))
 
 
+#: Below this ratio of ``H`` to the smaller end's vertical force, ``x/H`` is its vertical
+#: limit ``dx/dH`` to rounding (the two differ by a share of order ``(H / V)^2``).
+NEAR_VERTICAL = 1e-8
+
+
+def across_stiffness(H: FloatArray, V_B: FloatArray, L0: FloatArray, w: float,
+                     EA: float) -> FloatArray:
+    """Sideways stiffness ``H / x`` of catenaries whose plane turns about one end (N/m).
+
+    ``x`` is the catenary's own span of ``(H, V_B, L0)``, which is ``H`` times a
+    function of ``H^2`` (:mod:`catenary.elastic`), so ``H / x`` is that function's
+    inverse, computed without dividing a rounded ``H`` by a tiny span: the geometric
+    span of a cable 1e-14 m from vertical over the ``H`` a solver gives for it was off
+    by up to 4 orders of magnitude. Where ``H`` is below :data:`NEAR_VERTICAL` of both
+    ends' vertical forces (and at ``H = 0``) the vertical limit ``1 / (dx/dH)`` is
+    taken, equal to rounding (not for a folded cable, whose ends pull opposite ways).
+
+    Parameters
+    ----------
+    H, V_B, L0 : ndarray
+        Horizontal tension (N), vertical force at end B (N) and unstretched length (m).
+    w, EA : float
+        Weight per length (N/m) and axial stiffness (N).
+
+    Returns
+    -------
+    ndarray
+        The shape of ``H``; NaN where ``H`` is.
+    """
+    with np.errstate(all="ignore"):
+        span, _, f_xx, *_ = evaluate(H, V_B, L0, w, axial_compliance(np.asarray(EA, dtype=float)))
+        V_A = V_B - w * L0
+        ends = np.minimum(np.abs(V_A), np.abs(V_B))
+        # Ends pulling the same way (a folded cable's x/H grows like log(V / H) instead).
+        limit = ((H <= NEAR_VERTICAL * ends) & (V_A * V_B >= 0.0)) | (H == 0.0)
+        return np.asarray(np.where(limit, 1.0 / f_xx, H / span), dtype=float)
+
+
 def catenary_cable_stiffness(planes: CablePlanes, H: FloatArray, V_B: FloatArray,
                              L0: FloatArray, w: float, EA: float) -> FloatArray:
     """Stiffness of elastic catenaries at their platform end, (N, m, 3, 3) (N/m).
@@ -139,11 +181,8 @@ def catenary_cable_stiffness(planes: CablePlanes, H: FloatArray, V_B: FloatArray
     vertical = planes.x <= 0.0
     with np.errstate(all="ignore"):
         K2 = stiffness(H, V_B, L0, w, EA)  # d(H, V_B)/d(x, z), (N, m, 2, 2)
-        # Out-of-plane: the plane turns about the drawing point.
-        turn = H / np.where(vertical, 1.0, planes.x)
-        if vertical.any():  # x is proportional to H there: H / x -> 1 / (dx/dH)
-            f_xx = flexibility(H[vertical], V_B[vertical], L0[vertical], w, EA)[..., 0, 0]
-            turn[vertical] = 1.0 / f_xx
+    # Out-of-plane: the plane turns about the drawing point.
+    turn = across_stiffness(H, V_B, L0, w, EA)
     e_z = np.broadcast_to(E_Z, planes.e_h.shape)
     E = np.stack([planes.e_h, e_z], axis=-1)  # (N, m, 3, 2)
     in_plane = E @ K2 @ np.swapaxes(E, -1, -2)
