@@ -105,3 +105,61 @@ def inertia_tensor(value: ArrayLike) -> NDArray:
             f"inertia must be positive semi-definite (smallest eigenvalue {smallest:g} "
             "kg m^2); check the signs of the products of inertia")
     return inertia
+
+
+#: Largest magnitude (m) of a coordinate of a robot's points (anchors, attachments,
+#: centre of mass): 1000 km, far beyond any cable robot, so that a length in the wrong
+#: unit or from a far origin is refused rather than computed with.
+MAX_COORDINATE = 1e6
+#: Two points closer than this share of the larger of their two magnitudes (or of 1 m,
+#: whichever is larger) are one point.
+COINCIDENT_SHARE = 1e-9
+
+
+def far_coordinate(points: NDArray) -> tuple[tuple[int, ...], str] | None:
+    """The index of the first coordinate of the finite array ``points`` beyond
+    :data:`MAX_COORDINATE`, and what is wrong with it and the fix; None if there is none."""
+    far = np.abs(points) > MAX_COORDINATE
+    if not far.any():
+        return None
+    index = tuple(int(i) for i in np.argwhere(far)[0])
+    return index, (f"{float(points[index]):g} m is beyond {MAX_COORDINATE:g} m from the "
+                   "base origin: give lengths in metres (not millimetres) from an origin at "
+                   "the robot")
+
+
+def check_reach(name: str, points: NDArray) -> None:
+    """Raise the package's error naming the first coordinate beyond :data:`MAX_COORDINATE`."""
+    found = far_coordinate(points)
+    if found is not None:
+        index, text = found
+        raise InvalidInputError(name + "".join(f"[{i}]" for i in index) + f" = {text}")
+
+
+def coincident_pair(points: NDArray) -> tuple[int, int] | None:
+    """A pair ``(i, j)``, ``i < j``, of rows of ``points`` (finite, shape (m, 3), within
+    :data:`MAX_COORDINATE`) closer than :data:`COINCIDENT_SHARE` of the larger of their
+    own largest coordinates or of 1 m; None if no two rows coincide.
+
+    Memory and time grow as m (log m): each point is compared with its nearest neighbour
+    (a k-d tree) only. That finds every coinciding robot: if ``i`` and ``j`` coincide and
+    ``j`` is the larger, ``j``'s nearest neighbour is no farther than ``i`` and its
+    tolerance no smaller. Of the pairs so found the one named is the first.
+    """
+    m = len(points)
+    if m < 2:
+        return None
+    from scipy.spatial import cKDTree
+
+    _, nearest = cKDTree(points).query(points, k=2)
+    rows = np.arange(m)
+    # a point's first neighbour is itself, or another point at the same place
+    other = np.where(nearest[:, 0] == rows, nearest[:, 1], nearest[:, 0])
+    size = np.maximum(1.0, np.abs(points).max(axis=1))
+    gap = np.linalg.norm(points - points[other], axis=1)
+    close = np.flatnonzero(gap < COINCIDENT_SHARE * np.maximum(size, size[other]))
+    if not len(close):
+        return None
+    pairs = np.sort(np.stack([close, other[close]], axis=1), axis=1)
+    i, j = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))[0]]
+    return int(i), int(j)

@@ -38,7 +38,7 @@ from pydantic import (
     model_validator,
 )
 
-from tension_opt.checks import inertia_tensor
+from tension_opt.checks import coincident_pair, far_coordinate, inertia_tensor
 from tension_opt.errors import InvalidInputError, RobotFileError
 from tension_opt.kinds import KINDS
 from tension_opt.robot.formats import (
@@ -307,11 +307,12 @@ def _consistency(d: RobotDescription) -> list[tuple[tuple[str | int, ...], str]]
     if d.home is not None and len(d.home) != pattern.pose_size:
         found.append((("home",), f"has {len(d.home)} entries but a {d.kind} pose has "
                       f"{pattern.pose_size}: ({', '.join(pattern.coordinates)})"))
-    anchors = np.asarray(d.anchors)
-    gap = np.linalg.norm(anchors[:, None] - anchors[None], axis=-1)
-    same = np.argwhere(np.triu(gap < 1e-9 * max(1.0, np.abs(anchors).max()), k=1))
-    if len(same):
-        i, j = (int(v) for v in same[0])
+    far = [(name, far_coordinate(np.array(getattr(d, name), dtype=float)))
+           for name in ("anchors", "attachments", "com")]
+    found += [((name, *where[0]), where[1]) for name, where in far if where is not None]
+    pair = None if far[0][1] else coincident_pair(np.array(d.anchors, dtype=float))
+    if pair is not None:
+        i, j = pair
         found.append((("anchors", j), f"coincides with anchors[{i}]: each cable needs its "
                       "own drawing point"))
     return found

@@ -28,6 +28,8 @@ from tension_opt.checks import (
     as_finite,
     as_float_array,
     check_positive,
+    check_reach,
+    coincident_pair,
     inertia_tensor,
     is_number,
     per_cable,
@@ -100,9 +102,11 @@ class CableRobot:
     Parameters
     ----------
     anchors : array_like, shape (m, 3)
-        Drawing points (cable exit points) in the base frame (m).
+        Drawing points (cable exit points) in the base frame (m), no two at one point
+        (within 1e-9 of the larger of their largest coordinates, or of 1 m).
     attachments : array_like, shape (m, 3)
-        Attachment points in the platform frame (m). All zero for a point mass.
+        Attachment points in the platform frame (m). All zero for a point mass. These,
+        the anchors and ``com`` lie within 1e6 m of the origin (``checks.MAX_COORDINATE``).
     mass : float
         Platform (end-effector) mass (kg), > 0.
     kind : {"point3", "planar_point2", "planar3", "spatial6"} or MotionPattern
@@ -155,6 +159,8 @@ class CableRobot:
         if not is_number(self.g) or not np.isfinite(self.g) or self.g < 0:
             raise InvalidInputError(f"g must be finite and >= 0, got {self.g!r}")
         com = as_finite("com", self.com, (3,))
+        for name, points in (("anchors", anchors), ("attachments", attachments), ("com", com)):
+            check_reach(name, points)
         if not np.isfinite(self.mass * self.g):
             raise InvalidInputError(
                 f"the platform's weight mass * g = {self.mass!r} * {self.g!r} overflows")
@@ -174,14 +180,10 @@ class CableRobot:
             i = int(np.argmax(t_min > t_max))
             raise InvalidInputError(f"t_min[{i}] = {t_min[i]} exceeds t_max[{i}] = {t_max[i]}")
         # Two cables leaving one drawing point is almost always a typo in the data.
-        gap = np.linalg.norm(anchors[:, None] - anchors[None], axis=-1)
-        pairs = np.argwhere(np.triu(gap < 1e-9 * max(1.0, np.abs(anchors).max()), k=1))
-        if len(pairs):
-            i, j = (int(v) for v in pairs[0])
-            raise InvalidInputError(
-                f"anchors {i} and {j} coincide at {anchors[i].tolist()}: each cable needs "
-                "its own drawing point"
-            )
+        if (pair := coincident_pair(anchors)) is not None:
+            raise InvalidInputError(f"anchors {pair[0]} and {pair[1]} coincide at "
+                                    f"{anchors[pair[0]].tolist()}: each cable needs its own "
+                                    "drawing point")
         home = None if self.home is None else as_finite("home", self.home, (self.dof,))
         inertia = (box_inertia(self.mass, attachments) if self.inertia is None
                    else inertia_tensor(self.inertia))

@@ -7,6 +7,8 @@ import math
 import re
 import subprocess
 import sys
+import tracemalloc
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -398,3 +400,141 @@ def test_true_is_a_boolean_and_refused_as_a_name(tmp_path: Path) -> None:
     path, _ = _bad_file(tmp_path, "name: CoGiRo", "name: true")
     with pytest.raises(to.RobotFileError, match=r"name: input should be a valid string"):
         to.CableRobot.from_file(path)
+
+
+# ------------------------------------------------------------------ anchors: memory, pairs, reach
+def _many_cables(m: int) -> to.CableRobot:
+    rng = np.random.default_rng(1)
+    return to.CableRobot(anchors=rng.uniform(-50, 50, (m, 3)),
+                         attachments=rng.uniform(-0.5, 0.5, (m, 3)), mass=10.0)
+
+
+def _traced_peak(call: Callable[[], object]) -> int:
+    tracemalloc.start()
+    try:
+        call()
+        return tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+@pytest.mark.parametrize(("suffix", "per_cable"), [(".json", 1500), (".yaml", 8000)])
+def test_reading_a_large_file_takes_memory_linear_in_its_cables(suffix: str, per_cable: int,
+                                                                tmp_path: Path) -> None:
+    """The coincident-anchor checks built m x m x 3 arrays: reading 3000 cables peaked at
+    578 MB, 8000 at 4.1 GB. Now the parsed text dominates: about 800 bytes a cable from
+    JSON, 4.5 kB from YAML; the robot itself about 140."""
+    m = 3000
+    path = tmp_path / f"large{suffix}"
+    robot = _many_cables(m)
+    robot.to_file(path)
+    peak = _traced_peak(lambda: to.CableRobot.from_file(path))
+    assert peak < per_cable * m, f"{peak / 1e6:.1f} MB"
+    peak = _traced_peak(lambda: robot.with_(mass=2.0))
+    assert peak < 400 * m, f"{peak / 1e6:.1f} MB"
+
+
+def _point_robot(anchors: list[list[float]], **changes: object) -> to.CableRobot:
+    arguments: dict[str, object] = {"anchors": np.array(anchors, dtype=float),
+                                    "attachments": np.zeros((len(anchors), 3)), "mass": 1.0}
+    return to.CableRobot(**{**arguments, **changes})
+
+
+def _point_file(tmp_path: Path, anchors: list[list[float]],
+                extra: str = "") -> tuple[Path, str]:
+    rows = "".join(f"- {[float(v) for v in a]}\n" for a in anchors)
+    text = ("name: r\nkind: point3\nunits: {length: m, mass: kg, force: N}\n"
+            f"anchors:\n{rows}attachments:\n" + "- [0, 0, 0]\n" * len(anchors)
+            + f"mass: 1.0\n{extra}")
+    path = tmp_path / "r.yaml"
+    path.write_text(text)
+    return path, text
+
+
+# Anchors and the pair that coincides (None: none does): within 1e-9 of the pair's own
+# largest coordinate, and within 1e-9 m near the origin.
+PAIRS = {
+    "exact": ([[1.0, 2.0, 3.0], [0.0, 0.0, 1.0], [1.0, 2.0, 3.0]], (0, 2)),
+    "floor": ([[0.0, 0.0, 0.0], [1e-10, 0.0, 0.0], [1.0, 1.0, 1.0]], (0, 1)),
+    "above the floor": ([[0.0, 0.0, 0.0], [1e-8, 0.0, 0.0], [1.0, 1.0, 1.0]], None),
+    "far pair": ([[1e5, 0.0, 0.0], [1e5, 5e-5, 0.0], [0.0, 0.0, 1.0]], (0, 1)),
+    "far, apart": ([[1e5, 0.0, 0.0], [1e5, 2e-4, 0.0], [0.0, 0.0, 1.0]], None),
+    # one far anchor made the whole robot's tolerance 1 mm: 0 and 1 "coincided"
+    "far anchor": ([[0.0, 0.0, 0.0], [5e-4, 0.0, 0.0], [1e6, 0.0, 1.0], [-1.0, 2.0, 3.0]],
+                   None),
+    # ... and the message named 0 and 1, 0.5 mm apart, not 2 and 3
+    "the right pair": ([[0.0, 0.0, 0.0], [5e-4, 0.0, 0.0], [1e6, 0.0, 1.0],
+                        [1e6, 0.0, 1.0001]], (2, 3)),
+}
+
+
+@pytest.mark.parametrize("case", sorted(PAIRS))
+def test_anchors_coincide_within_a_tolerance_of_their_own_size(case: str,
+                                                               tmp_path: Path) -> None:
+    anchors, pair = PAIRS[case]
+    path, text = _point_file(tmp_path, anchors)
+    if pair is None:
+        assert _point_robot(anchors).m == len(anchors)
+        assert to.CableRobot.from_file(path).anchors.tolist() == anchors
+        return
+    i, j = pair
+    with pytest.raises(to.InvalidInputError, match=rf"^anchors {i} and {j} coincide"):
+        _point_robot(anchors)
+    with pytest.raises(to.RobotFileError) as caught:
+        to.CableRobot.from_file(path)
+    assert caught.value.problems == ((f"anchors[{j}]", _line_of(text, "- ", j + 1),
+                                      f"coincides with anchors[{i}]: each cable needs its own "
+                                      "drawing point"),)
+
+
+_BASES = [(0.0, 0.0, 0.0), (1e-3, 0.0, 0.0), (1.0, 0.0, 2.0), (1e3, -1.0, 2.0),
+           (9e5, 1.0, 0.0), (-5e5, 3e5, 7.0)]
+_DIRECTIONS = [(1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.6, 0.0, 0.8), (-0.5, 0.5, 0.5)]
+
+
+@settings(max_examples=300, deadline=None)
+@given(points=st.lists(st.tuples(st.sampled_from(_BASES), st.sampled_from(
+    [0.0, 1e-11, 3e-10, 8e-10, 2e-9, 1e-6, 1e-4, 1e-3, 1.0]), st.sampled_from(_DIRECTIONS)),
+    min_size=1, max_size=12))
+def test_the_named_pair_is_one_that_coincides(
+        points: list[tuple[tuple[float, ...], float, tuple[float, ...]]]) -> None:
+    anchors = np.array([np.add(base, np.multiply(scale, direction))
+                        for base, scale, direction in points])
+    size = np.maximum(1.0, np.abs(anchors).max(axis=1))
+    gap = np.linalg.norm(anchors[:, None] - anchors[None], axis=-1)
+    close = np.triu(gap < 1e-9 * np.maximum(size[:, None], size[None]), k=1)
+    pairs = {(int(i), int(j)) for i, j in np.argwhere(close)}
+    try:
+        _point_robot(anchors.tolist())
+    except to.InvalidInputError as error:
+        named = re.match(r"anchors (\d+) and (\d+) coincide", str(error))
+        assert named and (int(named[1]), int(named[2])) in pairs, (str(error), pairs)
+    else:
+        assert not pairs
+
+
+@pytest.mark.parametrize(("field", "value", "path"), [
+    ("anchors", [[0.0, 0.0, 0.0], [93.0, 0.0, 0.0], [1e11, 0.0, 0.0], [0.0, 1.0, 0.0]],
+     "anchors[2][0]"),
+    ("anchors", [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, -2e6, 0.0], [0.0, 1.0, 0.0]],
+     "anchors[2][1]"),
+    ("attachments", [[0.0, 0.0, 0.0] for _ in range(3)] + [[0.0, 0.0, 1.5e6]],
+     "attachments[3][2]"),
+    ("com", [0.0, 1e7, 0.0], "com[1]"),
+])
+def test_absurd_coordinates_are_refused_by_name(field: str, value: list, path: str,
+                                                tmp_path: Path) -> None:
+    """One anchor at 1e11 m made anchors 0 and 1, 93 m apart, "coincide"."""
+    anchors = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 1.0, 0.0]]
+    changes = {field: np.array(value)}
+    message = rf"{re.escape(path)} = [-\d.e+]+ m is beyond 1e\+06 m .*metres"
+    with pytest.raises(to.InvalidInputError, match=message):
+        _point_robot(changes.pop("anchors", anchors), **changes)
+    document = robot_files.robot_document(_point_robot(anchors))
+    document[field] = value
+    file = tmp_path / "far.yaml"
+    robot_files.write_document(file, document)
+    with pytest.raises(to.RobotFileError) as caught:
+        to.CableRobot.from_file(file)
+    (where, line, text), = caught.value.problems
+    assert where == path and line > 0 and re.search(message, f"{where} = {text}")
