@@ -21,7 +21,9 @@ CASPR joint            kind              pose
 Not imported (a :class:`~tension_opt.errors.RobotFileError` says so): several links or
 a link attached elsewhere than at the base origin, other joint types (spherical, planar
 in other planes, ...), cable models other than ``cable_ideal`` (springs), pulleys
-(``base_rotating_pulley``) and cables attached to more than the base and the platform.
+(``base_rotating_pulley``) and cables attached to more than the base and the platform;
+nor an element CASPR reads once (``<mass>``, ``<force_max>``, ...) given twice, or two
+cable sets of one id (the first was used and the others ignored).
 Gravity is CASPR's, 9.81 m/s^2 along -z, unless ``g`` is given. CASPR gives no cable
 diameter or mass, so the robot has no :class:`~tension_opt.CableProperties`.
 """
@@ -78,9 +80,21 @@ def _numbers(path: str | PathLike[str], where: str, text: str | None, size: int 
     return values
 
 
+def _only(path: str | PathLike[str], element: ET.Element, tag: str, where: str
+          ) -> ET.Element | None:
+    """The one ``<tag>`` child of ``element`` (None if absent); more than one is refused,
+    as a robot file refuses a duplicated key (CASPR reads one, so the others would be
+    ignored silently)."""
+    found = element.findall(tag)
+    if len(found) > 1:
+        raise _fail(path, where, f"<{tag}> is given {len(found)} times; give it once "
+                    "(keep the value meant and remove the others)")
+    return found[0] if found else None
+
+
 def _child(path: str | PathLike[str], element: ET.Element, tag: str, where: str
            ) -> ET.Element:
-    found = element.find(tag)
+    found = _only(path, element, tag, where)
     if found is None:
         raise _fail(path, where, f"missing <{tag}>")
     return found
@@ -113,7 +127,8 @@ def _home(joint: str, q: NDArray) -> NDArray:
 
 
 def _read_bodies(path: str | PathLike[str]) -> dict:
-    links = _root(path, "bodies_system").findall("./links/*")
+    holder = _only(path, _root(path, "bodies_system"), "links", "bodies_system")
+    links = [] if holder is None else list(holder)
     if len(links) != 1 or links[0].tag != "link_rigid":
         raise _fail(path, "links", f"{len(links)} links ({', '.join(k.tag for k in links)}); "
                     "only a single rigid link (one free platform) is imported")
@@ -126,12 +141,15 @@ def _read_bodies(path: str | PathLike[str]) -> dict:
     parent = _child(path, link, "parent", "link_rigid")
     location = _numbers(path, "parent/location", _child(path, parent, "location",
                                                         "parent").text, 3)
-    if (parent.findtext("num", "").strip() != "0") or location.any():
+    if (_child(path, parent, "num", "parent").text or "").strip() != "0" or location.any():
         raise _fail(path, "parent", "the link must hang from the base (num 0) at its origin "
                     "(location 0 0 0)")
     physical = _child(path, link, "physical", "link_rigid")
-    mass = float(_numbers(path, "physical/mass", physical.findtext("mass"), 1)[0])
-    com = _numbers(path, "physical/com_location", physical.findtext("com_location"), 3)
+    mass = float(_numbers(path, "physical/mass",
+                          _child(path, physical, "mass", "link_rigid/physical").text, 1)[0])
+    com = _numbers(path, "physical/com_location",
+                   _child(path, physical, "com_location", "link_rigid/physical").text, 3)
+    _only(path, physical, "end_location", "link_rigid/physical")
     q = _numbers(path, "joint/q_initial", joint_element.get("q_initial"), _POSE_SIZES[joint])
     return {"joint": joint, "mass": mass, "com": com,
             "inertia": _inertia(path, physical, mass, com), "home": _home(joint, q)}
@@ -146,7 +164,13 @@ def cable_sets(cables_xml: str | PathLike[str]) -> tuple[list[str], str | None]:
 def _chosen_set(path: str | PathLike[str], cable_set: str | None) -> tuple[str, ET.Element]:
     root = _root(path, "cables")
     chosen = cable_set if cable_set is not None else root.get("default_cable_set")
-    sets = {s.get("id", ""): s for s in root.findall("cable_set")}
+    elements = root.findall("cable_set")
+    ids = [s.get("id", "") for s in elements]
+    for id_ in ids:
+        if ids.count(id_) > 1:  # an ID in CASPR's cables.dtd: one set of each id
+            raise _fail(path, "cables", f"cable_set id {id_!r} is given {ids.count(id_)} "
+                        "times; give it once (rename or remove the other sets)")
+    sets = dict(zip(ids, elements, strict=True))
     if chosen not in sets:
         raise _fail(path, "cable_set", f"no cable set {chosen!r}; the file has {list(sets)}")
     return chosen, sets[chosen]
@@ -160,11 +184,12 @@ def _cable_ends(path: str | PathLike[str], cable: ET.Element, where: str
         if item.tag != "attachment":
             raise _fail(path, where, f"<{item.tag}> is not imported (pulleys and other "
                         "routing elements); use a cable set of plain attachments")
-        link = item.findtext("link", "").strip()
+        link = (_child(path, item, "link", where).text or "").strip()
         if link not in ("0", "1") or int(link) in ends:
             raise _fail(path, where, "a cable must run from the base (link 0) to the "
                         f"platform (link 1) once each; got link {link!r}")
-        ends[int(link)] = _numbers(path, f"{where}/location", item.findtext("location"), 3)
+        ends[int(link)] = _numbers(path, f"{where}/location",
+                                   _child(path, item, "location", where).text, 3)
     if len(ends) != 2:
         raise _fail(path, where, "a cable needs two attachments, link 0 and link 1")
     return ends[0], ends[1]
@@ -183,7 +208,8 @@ def _read_cables(path: str | PathLike[str], cable_set: str | None) -> list[dict]
             raise _fail(path, where, f"attachment_reference={reference!r}; expected 'joint' "
                         "or 'com'")
         properties = _child(path, cable, "properties", where)
-        bounds = [float(_numbers(path, f"{where}/{tag}", properties.findtext(tag), 1)[0])
+        bounds = [float(_numbers(path, f"{where}/{tag}",
+                                 _child(path, properties, tag, where).text, 1)[0])
                   for tag in ("force_min", "force_max")]
         anchor, attachment = _cable_ends(path, cable, where)
         cables.append({"anchor": anchor, "attachment": attachment, "reference": reference,

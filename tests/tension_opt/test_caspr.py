@@ -3,6 +3,7 @@ pose, agreement with the preset files, frames, and what is refused."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -184,3 +185,45 @@ def test_an_imported_model_round_trips_through_a_file(suffix: str, tmp_path: Pat
     for field in ("anchors", "attachments", "com", "inertia", "t_min", "t_max", "home"):
         assert getattr(back, field).tobytes() == getattr(robot, field).tobytes(), field
     assert (back.mass, back.name, back.kind) == (robot.mass, robot.name, robot.kind)
+
+
+# Text to repeat in the written model (bodies or cables file) and the element named.
+DUPLICATES = {
+    "mass": ("bodies", "<mass>2.0</mass>", "<mass>"),
+    "com": ("bodies", "<com_location>0.1 -0.2 0.3</com_location>", "<com_location>"),
+    "inertia entry": ("bodies", "<Ixx>1.0</Ixx>", "<Ixx>"),
+    "joint": ("bodies", '<joint type="T_XYZ" q_initial="0.1 0.2 1.0"/>', "<joint>"),
+    "parent": ("bodies", "<num>0</num>", "<num>"),
+    "links": ("bodies", None, "<links>"),
+    "bound": ("cables", "<force_max>100</force_max>", "<force_max>"),
+    "properties": ("cables", "<properties><force_min>1</force_min><force_max>100</force_max>"
+                   "</properties>", "<properties>"),
+    "location": ("cables", "<location>-2 -2 0</location>", "<location>"),
+    "link": ("cables", "<link>0</link>", "<link>"),
+    "cable set": ("cables", None, "cable_set id 's'"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(DUPLICATES))
+def test_a_duplicated_element_is_refused_naming_it(case: str, tmp_path: Path) -> None:
+    """A second <mass> (or any element CASPR reads once) was ignored: the first won."""
+    files = dict(zip(("bodies", "cables"), _write_model(tmp_path, "T_XYZ", "0.1 0.2 1.0",
+                                                         "com", "joint"), strict=True))
+    which, element, name = DUPLICATES[case]
+    path = files[which]
+    text = path.read_text()
+    if case == "links":
+        start, end = text.index("<links>"), text.index("</links>") + len("</links>")
+        text = text[:end] + text[start:end] + text[end:]
+    elif case == "cable set":
+        start, end = text.index('<cable_set id="s">'), text.index("</cables>")
+        text = text[:end] + text[start:end] + text[end:]
+    else:
+        assert element in text
+        text = text.replace(element, element + element.replace("1", "7"), 1)
+    path.write_text(text)
+    with pytest.raises(to.RobotFileError) as caught:
+        load_caspr(files["bodies"], files["cables"])
+    message = str(caught.value)
+    assert f"CASPR file {path}: " in message and caught.value.path == str(path)
+    assert re.search(rf"{re.escape(name)} is given 2 times.*give it once", message), message
