@@ -26,7 +26,9 @@ temporary file and renamed over the old one.
   changed since the last export) imports it, its rows winning; so does a journal
   ``results.journal.jsonl`` left by an interrupted run of earlier versions.
 
-A store that cannot be read raises :class:`StoreError`, naming the file and the way out.
+A store that cannot be read or written raises :class:`StoreError` naming the file, what
+is wrong (a damaged database, a lock held by another run, a file or directory that
+cannot be written) and the way out.
 """
 
 from __future__ import annotations
@@ -55,7 +57,9 @@ from numpy.typing import NDArray
 from benchmarks.plan import KEY
 from benchmarks.store_files import (
     check_csv,
+    database_problem,
     digest,
+    error_text,
     parse_journal,
     replace_file,
     same_traces,
@@ -449,43 +453,51 @@ class ResultsStore:
 
     # errors and decoding
     def _recovery(self) -> str:
-        return (f"delete {self.database_path} (with its -wal and -shm files if any): it is "
-                f"rebuilt from {self.results_path}, which holds the rows of every finished "
-                "run; rows measured since are run again")
+        return (f"delete {self.database_path} (with its -wal and -shm files if any) or move "
+                f"it aside, and run again: it is rebuilt from {self.results_path}, which "
+                "holds the rows of every finished run; rows measured since are run again")
 
     @contextlib.contextmanager
     def _errors(self) -> Iterator[None]:
-        """Turn sqlite3's errors into :class:`StoreError` naming the database and the fix."""
+        """Turn sqlite3's errors, and a refused write of a file, into :class:`StoreError`
+        saying which problem it is (damage, a lock, permissions), the file and the fix."""
         try:
             yield
-        except sqlite3.OperationalError as exc:
-            if "locked" in str(exc) or "busy" in str(exc):
-                raise StoreError(
-                    f"{self.database_path} stayed locked by another process for "
-                    f"{BUSY_TIMEOUT:g} s ({exc}); let it finish, or stop it and run "
-                    "again") from exc
-            raise StoreError(f"cannot use the results database {self.database_path}: {exc}; "
-                             f"check that its directory is writable, else "
-                             f"{self._recovery()}") from exc
-        except sqlite3.DatabaseError as exc:  # not a database, malformed pages ...
-            raise StoreError(f"{self.database_path} is not a readable results database "
-                             f"({exc}); {self._recovery()}") from exc
+        except (sqlite3.DatabaseError, PermissionError) as exc:
+            raise self._problem(exc) from exc
+
+    def _problem(self, exc: sqlite3.DatabaseError | PermissionError) -> StoreError:
+        db, what, problem = self.database_path, error_text(exc), database_problem(exc)
+        if problem == "corrupt":
+            return StoreError(f"{db} is not a readable results database: it is damaged "
+                              f"({what}); {self._recovery()}")
+        if problem == "locked":
+            return StoreError(f"{db} is locked: another run is writing it (waited "
+                              f"{BUSY_TIMEOUT:g} s: {what}); wait for that run to finish, "
+                              "or stop it, and run again")
+        if problem == "permissions":
+            name = getattr(exc, "filename", None) or db
+            return StoreError(f"cannot write {name} ({what}): the directory {self.directory} "
+                              "or the file is not writable; make them writable, or choose "
+                              "another results directory (--results DIR)")
+        return StoreError(f"cannot use the results database {db} ({what}); run again once "
+                          f"that is fixed (SQLite needs a local file system with free space)")
 
     def _decode_row(self, text: str) -> dict[str, Any]:
         try:
             row = json.loads(text)
             _key(row)
         except (ValueError, TypeError, KeyError) as exc:
-            raise StoreError(f"{self.database_path} holds a broken row ({exc}); "
-                             f"{self._recovery()}") from exc
+            raise StoreError(f"{self.database_path} is damaged: it holds a broken row "
+                             f"({exc}); {self._recovery()}") from exc
         return dict(row)
 
     def _decode_trace(self, blob: bytes) -> NDArray:
         try:
             return np.load(io.BytesIO(blob), allow_pickle=False)
         except (ValueError, OSError, EOFError) as exc:
-            raise StoreError(f"{self.database_path} holds a broken trace ({exc}); "
-                             f"{self._recovery()}") from exc
+            raise StoreError(f"{self.database_path} is damaged: it holds a broken trace "
+                             f"({exc}); {self._recovery()}") from exc
 
     def _file_error(self, path: Path, what: str, exc: Exception, fresh: bool) -> StoreError:
         keep = ("a run then starts from an empty table" if fresh

@@ -1,5 +1,6 @@
 """The files of the results store: checks of a results CSV, the journal of earlier
-versions, and atomic writes (:mod:`benchmarks.store` keeps the rows in SQLite)."""
+versions, atomic writes, and what an error of the database stands for
+(:mod:`benchmarks.store` keeps the rows in SQLite)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import hashlib
 import io
 import json
 import os
+import sqlite3
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -17,7 +19,51 @@ from numpy.typing import NDArray
 
 from benchmarks.plan import KEY
 
-__all__ = ["check_csv", "digest", "parse_journal", "replace_file", "same_traces"]
+__all__ = ["check_csv", "database_problem", "digest", "error_text", "parse_journal",
+           "replace_file", "same_traces"]
+
+#: SQLite's primary result codes by the problem they stand for.
+_PROBLEM_CODES = {
+    "corrupt": {sqlite3.SQLITE_CORRUPT, sqlite3.SQLITE_NOTADB},
+    "locked": {sqlite3.SQLITE_BUSY, sqlite3.SQLITE_LOCKED},
+    "permissions": {sqlite3.SQLITE_READONLY, sqlite3.SQLITE_PERM, sqlite3.SQLITE_CANTOPEN,
+                    sqlite3.SQLITE_AUTH},
+}
+#: The same told by the message, for errors that carry no code (the sqlite3 module's own,
+#: such as a stored text that is not UTF-8).
+_PROBLEM_WORDS = {
+    "corrupt": ("could not decode", "malformed", "not a database", "corrupt"),
+    "locked": ("locked", "busy"),
+    "permissions": ("readonly", "read-only", "unable to open", "permission"),
+}
+
+
+def database_problem(exc: BaseException) -> str:
+    """What an error of the results database stands for: ``"corrupt"`` (the file is
+    damaged), ``"locked"`` (another connection holds the write lock), ``"permissions"``
+    (the file or its directory cannot be written) or ``"other"``."""
+    if isinstance(exc, PermissionError):
+        return "permissions"
+    code = getattr(exc, "sqlite_errorcode", None)
+    text = str(exc).lower()
+    for problem, codes in _PROBLEM_CODES.items():
+        if code is not None and code & 0xFF in codes:
+            return problem
+    for problem, words in _PROBLEM_WORDS.items():
+        if any(word in text for word in words):
+            return problem
+    if type(exc) is sqlite3.DatabaseError:  # SQLite's own "not a database" family
+        return "corrupt"
+    return "other"
+
+
+def error_text(exc: BaseException) -> str:
+    """The error's message without the stored data it may quote (a row that could not be
+    decoded is quoted whole by the sqlite3 module)."""
+    text = str(exc)
+    if isinstance(exc, OSError) and exc.strerror:
+        text = exc.strerror
+    return text.split(" with text ", 1)[0]
 
 
 def check_csv(text: str) -> None:

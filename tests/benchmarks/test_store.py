@@ -312,6 +312,110 @@ def test_a_corrupt_database_is_a_named_error(tmp_path: Path,
     assert len(ResultsStore(tmp_path).load()) == 2
 
 
+def _stored(directory: Path, rows: int = 6) -> ResultsStore:
+    """A store of ``rows`` rows, exported, its write-ahead log folded into the file."""
+    store = ResultsStore(directory)
+    store.append_many([(_row("s", 0, i, 40), None) for i in range(rows)])
+    store.export()
+    with sqlite3.connect(store.database_path) as conn:
+        conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+    return store
+
+
+def test_a_damaged_row_is_reported_as_corruption(tmp_path: Path) -> None:
+    """Bytes of a stored row overwritten (text that is not UTF-8): the database is
+    damaged, not the directory unwritable; the message names the file and the way
+    out and does not quote the damaged row."""
+    store = _stored(tmp_path)
+    data = bytearray(store.database_path.read_bytes())
+    at = data.index(b"s/0/3/xxxx")
+    data[at + 6:at + 12] = b"\xff\xfe\xfd\xfc\xfb\xfa"
+    store.database_path.write_bytes(bytes(data))
+    with pytest.raises(StoreError) as info:
+        ResultsStore(tmp_path).load()
+    message = str(info.value)
+    assert str(store.database_path) in message
+    assert "damaged" in message and "move it aside" in message
+    assert "writable" not in message and "locked" not in message
+    assert "payload" not in message and "xxxx" not in message  # the row is not quoted
+    # The way out: moved aside, the database is rebuilt from the exported table.
+    store.database_path.rename(tmp_path / "damaged.sqlite")
+    assert len(ResultsStore(tmp_path).load()) == 6
+
+
+def test_a_database_locked_by_another_process_is_reported_as_locked(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    store = _stored(tmp_path)
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sqlite3, sys, time\n"
+         "c = sqlite3.connect(sys.argv[1], isolation_level=None)\n"
+         "c.execute('BEGIN IMMEDIATE'); print('held', flush=True); time.sleep(60)",
+         str(store.database_path)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+        monkeypatch.setattr("benchmarks.store.BUSY_TIMEOUT", 0.3)
+        with pytest.raises(StoreError) as info:
+            ResultsStore(tmp_path).append(_row("s", 1, 0, 1))
+    finally:
+        holder.kill()
+        holder.wait()
+    message = str(info.value)
+    assert str(store.database_path) in message and "locked" in message
+    assert "another run" in message and "wait" in message and "stop it" in message
+    assert "damaged" not in message and "writable" not in message
+    ResultsStore(tmp_path).append(_row("s", 1, 0, 1))  # the lock gone, the write goes in
+    assert len(ResultsStore(tmp_path).load()) == 7
+
+
+def _assert_permissions(message: str, path: Path) -> None:
+    assert str(path) in message and "not writable" in message and "--results" in message
+    assert "damaged" not in message and "locked" not in message
+
+
+@pytest.mark.skipif(hasattr(os, "geteuid") and os.geteuid() == 0,
+                    reason="running as root: file permissions are not enforced, so a "
+                           "read-only directory cannot be made; "
+                           "test_an_unwritable_database_simulated covers the message")
+def test_a_read_only_directory_is_reported_as_permissions(tmp_path: Path) -> None:
+    store = _stored(tmp_path)
+    for path in (store.database_path, tmp_path):
+        path.chmod(0o555 if path.is_dir() else 0o444)
+    try:
+        with pytest.raises(StoreError) as info:
+            ResultsStore(tmp_path).append(_row("s", 1, 0, 1))
+    finally:
+        for path in (store.database_path, tmp_path):
+            path.chmod(0o755 if path.is_dir() else 0o644)
+    _assert_permissions(str(info.value), store.database_path)
+
+
+def test_an_unwritable_database_simulated(tmp_path: Path,
+                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """SQLite's own refusal to write (a connection opened read-only stands in for a
+    directory or file without write permission), and the system's refusal to write
+    an exported file: both are permission problems, named as such."""
+    store = _stored(tmp_path)
+    connect = sqlite3.connect
+
+    def read_only(path: Any, *args: Any, **kwargs: Any) -> sqlite3.Connection:
+        return connect(f"file:{path}?mode=ro", *args, uri=True, **kwargs)
+
+    with monkeypatch.context() as patched:
+        patched.setattr(sqlite3, "connect", read_only)
+        with pytest.raises(StoreError) as info:
+            ResultsStore(tmp_path).append(_row("s", 1, 0, 1))
+    _assert_permissions(str(info.value), store.database_path)
+
+    def refused(path: Path, *args: Any, **kwargs: Any) -> str:
+        raise PermissionError(13, "Permission denied", str(path))
+
+    store.append(_row("s", 1, 0, 1))  # a new row: the table is written again
+    monkeypatch.setattr("benchmarks.store.replace_file", refused)
+    with pytest.raises(StoreError) as info:
+        ResultsStore(tmp_path).export()
+    _assert_permissions(str(info.value), store.results_path)
+
+
 # ------------------------------------------------------------------ exit codes
 def _untouched(directory: Path) -> dict[str, bytes]:
     (directory / "README.md").write_text("report\n")
