@@ -9,12 +9,13 @@
   :func:`distribute_trajectory` (dynamic tensions with every objective and smoothing
   option of :func:`tension_opt.distribute` and joint smoothing);
 - :mod:`~tension_opt.dynamics.simulate`: :func:`simulate`, open-loop forward dynamics;
-- :mod:`~tension_opt.dynamics.path`, :mod:`~tension_opt.dynamics.timing`,
-  :mod:`~tension_opt.dynamics.timing_convex`, :mod:`~tension_opt.dynamics.stage_lp`,
+- :mod:`~tension_opt.dynamics.path`, :mod:`~tension_opt.dynamics.intervals`,
+  :mod:`~tension_opt.dynamics.timing`, :mod:`~tension_opt.dynamics.timing_convex`,
+  :mod:`~tension_opt.dynamics.reachability`, :mod:`~tension_opt.dynamics.stage_lp`,
   :mod:`~tension_opt.dynamics.lp`: :func:`time_optimal`, the time-optimal timing of a
-  path under tension, velocity and acceleration limits (a convex program over the
-  tensions of every grid point, or TOPP-RA reachability with the tensions as LP
-  variables);
+  path under tension, velocity and acceleration limits, feasible between its grid
+  points too (a convex program over the tensions of every check, or TOPP-RA
+  reachability with the tensions as LP variables);
 - :mod:`~tension_opt.dynamics.facets`: :func:`wrench_facets`, the wrench-feasible set
   as linear inequalities on the wrench (hyperplane shifting);
 - :mod:`~tension_opt.dynamics.workspace`: :func:`dynamic_workspace`, the

@@ -20,7 +20,7 @@ time-optimal timing (:mod:`tension_opt.dynamics.timing`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -162,6 +162,16 @@ class PathStages:
         """Velocities ``V sqrt(x)`` and accelerations ``V u + C x``, each (K, n)."""
         return (self.V * np.sqrt(np.maximum(x, 0.0))[:, None],
                 self.V * u[:, None] + self.C * x[:, None])
+
+    def take(self, index: NDArray) -> PathStages:
+        """The stages at the points ``index`` (an index array or a boolean mask)."""
+        return PathStages(*(getattr(self, f.name)[index] for f in fields(self)))
+
+    @staticmethod
+    def join(*parts: PathStages) -> PathStages:
+        """The points of ``parts`` one after the other."""
+        return PathStages(*(np.concatenate([getattr(p, f.name) for p in parts])
+                            for f in fields(PathStages)))
 
 
 def _per_point(name: str, value: ArrayLike, shape: tuple[int, ...]) -> NDArray:

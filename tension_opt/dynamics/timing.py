@@ -1,21 +1,26 @@
 """Time-optimal timing of a path under tension, velocity and acceleration limits.
 
 Along a path ``q(s)`` (:mod:`tension_opt.dynamics.path`) the wrench the cables must
-supply is linear in ``u = s''`` and ``x = s'^2``, so at every grid point ``s_k`` the
-constraints are linear in ``(u_k, x_k)`` and the tensions ``T_k``::
+supply is linear in ``u = s''`` and ``x = s'^2``, so at every point the constraints are
+linear in ``(u, x)`` and the tensions ``T``::
 
-    A_k T_k = a_k u_k + b_k x_k + c_k,   t_min <= T_k <= t_max,
-    x_k |V_kj|^2 <= v_max_j^2,   |V_kj u_k + C_kj x_k| <= a_max_j,   x_k >= 0,
+    A T = a u + b x + c,   t_min <= T <= t_max,
+    x |V_j|^2 <= v_max_j^2,   |V_j u + C_j x| <= a_max_j,   x >= 0.
 
-with ``x_{k+1} = x_k + 2 (s_{k+1} - s_k) u_k`` between grid points (the collocation
-scheme of TOPP-RA) and rest at both ends. Two solvers:
+A timing moves with a constant ``u_k`` from grid point ``s_k`` to the next, so
+``x_{k+1} = x_k + 2 (s_{k+1} - s_k) u_k``, from rest to rest. Its constraints hold
+along the whole interval, not only at the grid points
+(:mod:`tension_opt.dynamics.intervals`): each ``(u_k, x_k)`` is constrained at its
+grid point, at the end of its interval (with the path's values there: TOPP-RA's
+interpolation scheme), at the spline's knots inside it, and, round by round, at the
+points inside where a dense check found the wrench outside the feasible set or a
+motion limit exceeded. Two solvers:
 
 ``"reachability"``
-    TOPP-RA (Pham & Pham 2018): a backward pass of linear programs in ``(u, x, T)``
-    gives the controllable set ``[K_lo, K_hi]`` of ``x`` at every grid point; a
-    forward pass takes the largest ``u`` that stays controllable. Both are LPs solved
-    by HiGHS (:mod:`tension_opt.dynamics.lp`), the tensions scaled by a typical
-    tension per point.
+    TOPP-RA (Pham & Pham 2018): a backward pass of linear programs gives the
+    controllable set ``[K_lo, K_hi]`` of ``x`` at every grid point; a forward pass takes
+    the largest ``u`` that stays controllable (:mod:`tension_opt.dynamics.reachability`,
+    HiGHS, the tensions scaled by a typical tension per point).
 ``"convex"`` (default)
     The convex program of Verscheure et al. (2009): minimise the traversal time
     ``sum 2 ds_k / (sqrt(x_k) + sqrt(x_{k+1}))`` over ``(u, x, T)`` of every point at
@@ -43,8 +48,15 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt.backends.registry import choose_backend
 from tension_opt.checks import as_float_array, is_number
 from tension_opt.distribution.solution import solution_of
-from tension_opt.dynamics.path import PathSpline, PathStages, path_stages
-from tension_opt.dynamics.stage_lp import StageLP
+from tension_opt.dynamics.intervals import (
+    Between,
+    PathModel,
+    StageChecks,
+    between_check,
+    initial_checks,
+)
+from tension_opt.dynamics.path import PathSpline, PathStages
+from tension_opt.dynamics.reachability import failed_points, reachability
 from tension_opt.dynamics.timed import TimedTrajectory
 from tension_opt.dynamics.timing_convex import convex_timing
 from tension_opt.errors import InvalidInputError
@@ -55,8 +67,8 @@ from tension_opt.workspace.margin import margin_solve
 
 __all__ = ["STOP_TOL", "TimingResult", "motion_limits", "time_optimal"]
 
-#: Forward-pass retries, each lowering x_k by this fraction, on a barely infeasible LP.
-_RETRIES, _BACKOFF = 8, 1e-7
+#: Rounds of checks added between grid points (:mod:`tension_opt.dynamics.intervals`).
+BETWEEN_ROUNDS = 8
 #: ``s'^2`` at or below this share of its largest value along the path counts as zero.
 STOP_TOL = 1e-9
 
@@ -76,51 +88,6 @@ def motion_limits(name: str, value: float | ArrayLike | None, n: int) -> NDArray
     return arr
 
 
-def _controllable_sets(lp: StageLP) -> tuple[NDArray, int | None, str]:
-    """Backward pass: ``K`` (K, 2) of controllable ``x``; the first point (from the end)
-    where it is empty, or None; and an outcome."""
-    K = lp.stages.K
-    sets = np.full((K, 2), np.nan)
-    outcome, _ = lp.solve(K - 1, (0.0, 0.0), (0.0, 0.0), None)  # at rest at the end
-    if outcome != "optimal":
-        return sets, K - 1, outcome
-    sets[K - 1] = 0.0
-    for k in range(K - 2, -1, -1):
-        nxt = (sets[k + 1, 0], sets[k + 1, 1])
-        out_lo, z_lo = lp.solve(k, (0.0, 1.0), (0.0, np.inf), nxt)
-        out_hi, z_hi = lp.solve(k, (0.0, -1.0), (0.0, np.inf), nxt)
-        if out_lo != "optimal" or z_lo is None or out_hi not in ("optimal", "unbounded"):
-            return sets, k, out_lo if out_lo != "optimal" else out_hi
-        hi = np.inf if z_hi is None else z_hi[1]
-        sets[k] = (max(z_lo[1], 0.0), hi)
-    return sets, None, "optimal"
-
-
-def _forward_pass(lp: StageLP, sets: NDArray) -> tuple[NDArray, NDArray, str]:
-    """Greedy forward pass: ``x`` (K,), ``u`` (K,) and an outcome."""
-    K = lp.stages.K
-    ds = np.diff(lp.stages.s)
-    x, u = np.zeros(K), np.zeros(K)
-    for k in range(K - 1):
-        nxt = (sets[k + 1, 0], sets[k + 1, 1])
-        for _ in range(_RETRIES):
-            outcome, z = lp.solve(k, (-1.0, 0.0), (x[k], x[k]), nxt)
-            if outcome != "infeasible" or x[k] == 0.0:
-                break
-            x[k] *= 1.0 - _BACKOFF  # the LP's tolerance left x_k just outside
-        if outcome != "optimal" or z is None:
-            return x, u, outcome
-        x[k + 1] = min(max(x[k] + 2.0 * ds[k] * z[0], sets[k + 1, 0]), sets[k + 1, 1])
-        u[k] = (x[k + 1] - x[k]) / (2.0 * ds[k])
-    # At rest at the end: the feasible s'' closest to the last step's.
-    _, lo = lp.solve(K - 1, (1.0, 0.0), (0.0, 0.0), None)
-    _, hi = lp.solve(K - 1, (-1.0, 0.0), (0.0, 0.0), None)
-    low = lo[0] if lo is not None else -np.inf
-    high = hi[0] if hi is not None else np.inf
-    u[K - 1] = min(max(u[K - 2], low), high) if K > 1 else 0.0
-    return x, u, "optimal"
-
-
 @dataclass(frozen=True, eq=False)
 class TimingResult:
     """The time-optimal timing of a path, per grid point.
@@ -134,7 +101,8 @@ class TimingResult:
     duration : float
         Total time (s); inf if no timing was found.
     sd, sdd : ndarray, shape (K,)
-        Path speed ``s'`` and acceleration ``s''`` (``s''`` constant up to the next point).
+        Path speed ``s'`` and acceleration ``s''`` (``s''`` constant up to the next point;
+        at the last point, at rest, the arrival's).
     poses, velocities, accelerations : ndarray, shape (K, n)
         Poses and their velocity coordinates and derivatives at the grid points.
     wrenches : ndarray, shape (K, n)
@@ -143,7 +111,9 @@ class TimingResult:
     tensions : ndarray, shape (K, m)
         Tensions holding ``wrenches`` chosen by the objective (N); NaN where none.
     status : ndarray of str, shape (K,)
-        ``OPTIMAL``; ``INFEASIBLE`` where no timing can pass the point (others
+        ``OPTIMAL``; ``INACCURATE`` where the motion from the point to the next leaves
+        the feasible wrenches or a motion limit (see ``margin_between``);
+        ``INFEASIBLE`` where no timing can pass the point (others
         ``NOT_RUN``); ``UNBOUNDED`` if nothing limits the speed; ``STALLED`` at the
         second of two neighbouring points where ``s'^2`` is zero (within
         :data:`STOP_TOL` of its largest value: the segment would take forever; the
@@ -151,6 +121,14 @@ class TimingResult:
         timing); a tension solve's status.
     margin : ndarray, shape (K,)
         Capacity margin of the wrench (N): zero where the tension limits bind.
+    margin_between : ndarray, shape (K - 1,)
+        The smallest capacity margin (N) from each grid point to the next, of the
+        wrench the timing needs there (its ``s''`` kept up to the next point), checked
+        at the interval's ends and at evenly spaced points of it, more where the
+        margin's curvature asks (:func:`~tension_opt.dynamics.intervals.between_check`);
+        NaN without a timing.
+    margin_between_s : ndarray, shape (K - 1,)
+        Where each is (m, rad).
     active_tension : ndarray of bool, shape (K,)
         The tension limits bind (margin within ``active_tol`` of a typical tension).
     active_cables : ndarray of bool, shape (K, m)
@@ -180,6 +158,8 @@ class TimingResult:
     tensions: NDArray
     status: NDArray
     margin: NDArray
+    margin_between: NDArray
+    margin_between_s: NDArray
     active_tension: NDArray
     active_cables: NDArray
     active_velocity: NDArray
@@ -194,6 +174,20 @@ class TimingResult:
     def success(self) -> bool:
         """Whether a timing was found with tensions at every point."""
         return bool((self.status == Status.OPTIMAL).all())
+
+    @property
+    def min_margin_between(self) -> float:
+        """The smallest capacity margin between the grid points (N); NaN without a timing."""
+        if not np.isfinite(self.margin_between).any():
+            return float("nan")
+        return float(np.nanmin(self.margin_between))
+
+    @property
+    def min_margin_between_at(self) -> float:
+        """Where :attr:`min_margin_between` is (m, rad); NaN without a timing."""
+        if not np.isfinite(self.margin_between).any():
+            return float("nan")
+        return float(self.margin_between_s[np.nanargmin(self.margin_between)])
 
     @property
     def trajectory(self) -> TimedTrajectory:
@@ -221,54 +215,18 @@ class TimingResult:
         return frame
 
 
-def _reachability(stages: PathStages, v_max: NDArray, a_max: NDArray, slack: float
-                  ) -> tuple[NDArray, NDArray, NDArray, str, int | None, int]:
-    """TOPP-RA: ``x, u`` (K,), controllable sets (K, 2), outcome, the failing point
-    (or None) and the number of LPs."""
-    lp = StageLP(stages, v_max, a_max, slack)
-    sets, fail, outcome = _controllable_sets(lp)
-    x = u = np.full(stages.K, np.nan)
-    if fail is None and sets[0, 0] > 1e-9 * max(1.0, sets[0, 1]):
-        fail, outcome = 0, "infeasible"  # the path cannot start at rest
-    if fail is None:
-        x, u, outcome = _forward_pass(lp, sets)
-    if outcome != "optimal":
-        fail = 0 if fail is None else fail
-    return x, u, sets, outcome, fail, lp.count
-
-
-def _solve(stages: PathStages, vmax: NDArray, amax: NDArray, slack: float, method: str
+def _solve(checks: StageChecks, vmax: NDArray, amax: NDArray, slack: float, method: str
            ) -> tuple[NDArray, NDArray, NDArray, str, int | None, int, str]:
     """Run ``method``: ``x, u``, controllable sets, outcome, failing point, LP count and
     the method that gave the answer."""
-    if method not in ("convex", "reachability"):
-        raise InvalidInputError(f'method must be "convex" or "reachability", got {method!r}')
     if method == "convex":
-        x, u, outcome = convex_timing(stages, vmax, amax, slack)
+        x, u, outcome = convex_timing(checks, vmax, amax, slack)
         if outcome == "optimal":
-            return x, u, np.full((stages.K, 2), np.nan), outcome, None, 0, method
+            return x, u, np.full((checks.K, 2), np.nan), outcome, None, 0, method
     # Also what tells an unbounded or infeasible path from a convex solver's failure.
-    x, u, sets, outcome, fail, count = _reachability(stages, vmax, amax, slack)
+    x, u, sets, outcome, fail, count = reachability(checks, vmax, amax, slack)
     return x, u, sets, outcome, fail, count, (
         "reachability" if method == "reachability" else "convex+reachability")
-
-
-def _failed_points(stages: PathStages, v_max: NDArray, a_max: NDArray, outcome: str
-                   ) -> NDArray:
-    """Per-point status of a path without a timing: ``INFEASIBLE`` where no ``(u, x)``
-    at all is feasible, the rest ``NOT_RUN`` (``UNBOUNDED`` everywhere if unbounded)."""
-    if outcome == "unbounded":
-        return status_array(stages.K, Status.UNBOUNDED)
-    lp = StageLP(stages, v_max, a_max)
-    status = status_array(stages.K, Status.NOT_RUN)
-    for k in range(stages.K):
-        if lp.solve(k, (0.0, 0.0), (0.0, np.inf), None)[0] == "infeasible":
-            status[k] = Status.INFEASIBLE
-    if not (status == Status.INFEASIBLE).any() and outcome == "infeasible":
-        status[:] = Status.INFEASIBLE  # each point passable alone, the path is not
-    elif outcome not in ("infeasible", "optimal"):
-        status[status == Status.NOT_RUN] = Status.SOLVER_ERROR
-    return status
 
 
 def _tensions(robot: CableRobot, stages: PathStages, W: NDArray,
@@ -346,9 +304,13 @@ def time_optimal(
     -------
     TimingResult
         ``times``, ``duration``, motion, ``tensions``, per-point ``status``, the margin
-        and the active limits. A path that cannot be timed (a point the robot cannot
-        hold, no way from rest to rest, or a timing that stops the path: ``STALLED``)
-        has ``duration = inf`` and per-point statuses; it raises nothing.
+        at and between the grid points and the active limits. A motion that, after
+        :data:`BETWEEN_ROUNDS` rounds of checks, still leaves the feasible wrenches
+        between two grid points (a margin below ``-FEASIBILITY_TOL`` times the typical
+        tension) or a motion limit is ``INACCURATE`` there, its figures kept. A path
+        that cannot be timed (a point the robot cannot hold, no way from rest to rest,
+        or a timing that stops the path: ``STALLED``) has ``duration = inf`` and
+        per-point statuses; it raises nothing.
 
     Raises
     ------
@@ -356,47 +318,82 @@ def time_optimal(
         On a bad path, limits, grid, structure, bounds, method or setting.
     """
     t0 = time.perf_counter()
-    _check_fractions(tension_slack=(tension_slack, 0.5), active_tol=(active_tol, 1.0))
+    _check_settings(method, tension_slack=(tension_slack, 0.5), active_tol=(active_tol, 1.0))
     spline = path if isinstance(path, PathSpline) else PathSpline.through(robot, path)
-    stages = path_stages(robot, spline, spline.grid(gridpoints), structure=structure,
-                         bounds=bounds, wrench=wrench)
+    model = PathModel.build(robot, spline, spline.grid(gridpoints), structure=structure,
+                            bounds=bounds, wrench=wrench)
     vmax, amax = (motion_limits(k, v, robot.dof) for k, v in (("v_max", v_max),
                                                               ("a_max", a_max)))
-    problem = as_problem(objective)
-    x, u, sets, outcome, fail, count, used = _solve(stages, vmax, amax, tension_slack, method)
-    extras = {"stages": stages, "path": spline, "kind": robot.kind}
-    if fail is not None:
-        return _no_timing(robot, stages, _failed_points(stages, vmax, amax, outcome), sets,
-                          used, count, time.perf_counter() - t0, extras)
-    return _timed(robot, stages, x, u, sets, (vmax, amax), problem, bounds is not None,
-                  backend, options, active_tol, used, count, t0, extras)
+    run = _Run(robot, model, vmax, amax, as_problem(objective), bounds is not None, backend,
+               options, active_tol, t0, {"stages": model.stages, "path": spline,
+                                         "kind": robot.kind})
+    return _rounds(run, initial_checks(model), tension_slack, method)
 
 
-def _check_fractions(**given: tuple[object, float]) -> None:
-    """Each setting ``name=(value, top)`` a number in ``[0, top)``, or the package's
-    error naming it."""
+def _rounds(run: _Run, checks: StageChecks, slack: float, method: str) -> TimingResult:
+    """Solve, check between the grid points, add the checks that failed, and again: up
+    to :data:`BETWEEN_ROUNDS` times."""
+    count = 0
+    for rounds in range(BETWEEN_ROUNDS + 1):
+        x, u, sets, outcome, fail, lps, used = _solve(checks, run.vmax, run.amax, slack,
+                                                      method)
+        count += lps
+        if fail is not None:
+            run.extras["checks"] = checks
+            return _no_timing(run, failed_points(checks, run.vmax, run.amax, outcome), sets,
+                              used, count)
+        between = between_check(run.model, x, u, run.vmax, run.amax)
+        if not between.bad.any() or rounds == BETWEEN_ROUNDS:
+            break
+        checks = checks.with_points(run.model, between.owner, between.at)
+    run.extras["checks"] = checks
+    return _timed(run, x, u, sets, between, used, count)
+
+
+@dataclass(frozen=True, eq=False)
+class _Run:
+    """What a call of :func:`time_optimal` computes its result from."""
+
+    robot: CableRobot
+    model: PathModel
+    vmax: NDArray
+    amax: NDArray
+    problem: TensionProblem
+    custom_bounds: bool
+    backend: Any
+    options: dict[str, Any]
+    active_tol: float
+    t0: float
+    extras: dict[str, Any]
+
+
+def _check_settings(method: str, **given: tuple[object, float]) -> None:
+    """A known ``method``, and each setting ``name=(value, top)`` a number in
+    ``[0, top)``, or the package's error naming it."""
+    if method not in ("convex", "reachability"):
+        raise InvalidInputError(f'method must be "convex" or "reachability", got {method!r}')
     for name, (value, top) in given.items():
         if not (is_number(value) and 0.0 <= float(value) < top):  # type: ignore[arg-type]
             raise InvalidInputError(f"{name} must be a number in [0, {top}), got {value!r}")
 
 
-def _no_timing(robot: CableRobot, stages: PathStages, status: NDArray, sets: NDArray,
-               method: str, count: int, elapsed: float, extras: dict[str, Any]
+def _no_timing(run: _Run, status: NDArray, sets: NDArray, method: str, count: int
                ) -> TimingResult:
-    K, n, m = stages.K, robot.dof, robot.m
+    stages = run.model.stages
+    K, n, m = stages.K, run.robot.dof, run.robot.m
     nan = np.full(K, np.nan)
     return TimingResult(
         stages.s, nan, float("inf"), nan, nan, stages.poses, np.full((K, n), np.nan),
         np.full((K, n), np.nan), np.full((K, n), np.nan), np.full((K, m), np.nan), status,
-        nan, np.zeros(K, bool), np.zeros((K, m), bool), np.zeros((K, n), bool),
-        np.zeros((K, n), bool), sets, method, count, elapsed, extras)
+        nan, nan[1:], nan[1:], np.zeros(K, bool), np.zeros((K, m), bool),
+        np.zeros((K, n), bool), np.zeros((K, n), bool), sets, method, count,
+        time.perf_counter() - run.t0, run.extras)
 
 
-def _timed(robot: CableRobot, stages: PathStages, x: NDArray, u: NDArray, sets: NDArray,
-           limits: tuple[NDArray, NDArray], problem: TensionProblem, custom_bounds: bool,
-           backend: Any, options: dict[str, Any], active_tol: float, method: str,
-           count: int, t0: float, extras: dict[str, Any]) -> TimingResult:
+def _timed(run: _Run, x: NDArray, u: NDArray, sets: NDArray, between: Between, method: str,
+           count: int) -> TimingResult:
     """The result of a timing ``x, u``: times, motion, tensions and active limits."""
+    stages = run.model.stages
     x = np.maximum(x, 0.0)
     sd = np.sqrt(x)
     # Zero to the LPs' tolerance: the path would stop there, and a segment between two
@@ -406,22 +403,25 @@ def _timed(robot: CableRobot, stages: PathStages, x: NDArray, u: NDArray, sets: 
     if stalls.any():  # no timing
         status = status_array(stages.K, Status.NOT_RUN)
         status[1:][stalls] = Status.STALLED
-        return _no_timing(robot, stages, status, sets, method, count,
-                          time.perf_counter() - t0, extras)
+        return _no_timing(run, status, sets, method, count)
     dt = 2.0 * np.diff(stages.s) / (sd[:-1] + sd[1:])
     times = np.concatenate([[0.0], np.cumsum(dt)])
     vel, acc = stages.motion(u, x)
     W = stages.wrenches(u, x)
-    T, status = _tensions(robot, stages, W, problem, custom_bounds, backend, options)
+    T, status = _tensions(run.robot, stages, W, run.problem, run.custom_bounds, run.backend,
+                          run.options)
+    # Outside the feasible set (or a motion limit) between grid points after the last
+    # round of checks: the figures stand, not as optimal.
+    status[:-1][between.bad & (status[:-1] == Status.OPTIMAL)] = Status.INACCURATE
     ones = np.ones_like(stages.lb)
     margin, _, _, _ = margin_solve(stages.A, W, stages.lb, ones, stages.ub, ones, "auto")
     typical = typical_tension(stages.A, W, stages.lb)
-    tight = active_tol * typical[:, None]
-    active = margin <= active_tol * typical
+    tight = run.active_tol * typical[:, None]
+    active = margin <= run.active_tol * typical
     cables = active[:, None] & ((T - stages.lb <= tight) | (stages.ub - T <= tight))
-    vmax, amax = limits
     return TimingResult(
         stages.s, times, float(times[-1]), sd, u, stages.poses, vel, acc, W, T, status,
-        margin, active, cables, np.abs(vel) >= vmax * (1 - active_tol),
-        np.abs(acc) >= amax * (1 - active_tol), sets, method, count,
-        time.perf_counter() - t0, extras)
+        margin, between.margin, between.s, active, cables,
+        np.abs(vel) >= run.vmax * (1 - run.active_tol),
+        np.abs(acc) >= run.amax * (1 - run.active_tol), sets, method, count,
+        time.perf_counter() - run.t0, run.extras)

@@ -47,12 +47,39 @@ def test_sag_makes_the_study_path_slower(sag) -> None:
         dyn.time_optimal(ROBOT, pick_and_place()).duration, rel=1e-9)
 
 
+def _coupled_between(timing: dyn.TimingResult, per: int = 16) -> np.ndarray:
+    """Coupled margin (N) of the timing's motion at ``per + 1`` evenly spaced points of
+    every interval, both ends included (``s''`` kept from a grid point to the next),
+    shape (K - 1, per + 1)."""
+    spline, s = timing.extras["path"], timing.s
+    t = np.arange(per + 1) / per
+    own = np.repeat(np.arange(len(s) - 1), per + 1)
+    at = (s[:-1, None] + np.diff(s)[:, None] * t).ravel()
+    x = np.maximum(timing.sd[own] ** 2 + 2 * (at - s[own]) * timing.sdd[own], 0.0)
+    q, dq, ddq = spline(at), spline(at, 1), spline(at, 2)
+    W = dyn.required_wrench(ROBOT, q, dq * np.sqrt(x)[:, None],
+                            dq * timing.sdd[own][:, None] + ddq * x[:, None], rates="pose")
+    margin = cat.coupled_margin(ROBOT, q, ROBOT.required_wrench(q) - W)[0]
+    return margin.reshape(len(s) - 1, per + 1)
+
+
+def test_the_sag_timing_holds_between_grid_points(sag) -> None:
+    """Checked at its grid points only, the sag-aware timing of the study path needed
+    -12.8 kN of coupled margin between them (s = 0.31 m); now within 15 N (1e-3 of
+    t_max): the sag model is linearised at the grid points and interpolated between
+    them, and the timing checks that."""
+    between = _coupled_between(sag.timing)
+    assert between.min() >= -1e-3 * ROBOT.t_max[0]
+    assert sag.timing.min_margin_between >= -1e-6 * ROBOT.t_max[0]
+
+
 def test_coupled_model_holds_the_sag_timing_but_not_the_straight_one(sag) -> None:
     """Independent check by the coupled inverse kinematics and margin of catenary."""
     poses = sag.timing.poses
     on_limit = cat.coupled_margin(ROBOT, poses, _dynamic_wrench(sag.timing))[0]
     assert on_limit.min() >= -1e-6 * ROBOT.t_max[0]  # the sag timing is feasible ...
-    assert np.median(np.abs(on_limit)) < 1.0  # ... and on the boundary: time-optimal
+    # ... and on the boundary somewhere in most intervals: time-optimal.
+    assert np.median(np.abs(_coupled_between(sag.timing).min(axis=1))) < 1.0
     slower = _dynamic_wrench(sag.timing, 0.99**2)
     ik = cat.inverse_kinematics(ROBOT, poses, "coupled", wrench=slower)
     assert ik.success.all()
