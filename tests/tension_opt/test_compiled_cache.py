@@ -96,16 +96,19 @@ def test_import_closures_of_the_kernels() -> None:
                                      "catenary": root.parent / "catenary"})
     closure = compiled_cache.import_closure(files)
     certified = closure["tension_opt.kernels.certified"]
-    assert {"tension_opt.certify.certificate", "tension_opt.kernels.closed_form",
+    assert {"tension_opt.tolerances", "tension_opt.kernels.closed_form",
             "tension_opt.kernels.certificate", "tension_opt.kernels.scaling",
-            "tension_opt.distribution.solution"} <= certified
+            "tension_opt.kernels.certified_lanes"} <= certified
+    # Kernels import only the ground: the layers they twin are not in their closure.
+    assert not any(name.split(".")[1] in {"certify", "distribution", "problem", "backends"}
+                   for name in certified)
     spans = closure["catenary.solve.kernels"]
     assert {"catenary.solve.kernels_spans", "catenary.solve.kernels_bracket"} <= spans
     assert not any(name.startswith("tension_opt") for name in spans)
     assert "tension_opt.kernels.closed_form" in closure["catenary.thesis_ik_kernels"]
-    # A change to the certificate's constants makes the certified kernel stale, and
-    # not the catenary's span kernels.
-    stale = compiled_cache.stale_modules(files, files, {"tension_opt.certify.certificate"})
+    # A change to the shared tolerances makes the certified kernel stale, and not the
+    # catenary's span kernels.
+    stale = compiled_cache.stale_modules(files, files, {"tension_opt.tolerances"})
     assert "tension_opt.kernels.certified" in stale
     assert "catenary.solve.kernels" not in stale
 

@@ -261,7 +261,8 @@ def test_the_closed_form_is_judged_at_the_accuracy_asked(
     """The closed form honours ``accuracy=`` on every path (the certified pass, the
     chunk path, one small batch, a smoothed sequence): the solution records the target
     and a pose is optimal exactly where its three measures meet it. At the tightest
-    target some exact answers miss it by rounding and say so."""
+    target an exact answer that misses it by rounding says so (whether any does depends
+    on the machine's vector arithmetic: some did with AVX-512, none do without)."""
     robot = presets.algae_harvester()
     poses = spread_poses(robot, 600, 5, spread=0.8)
     solutions = list(both_paths(robot, poses, "min_sum", "closed_form", monkeypatch,
@@ -278,8 +279,6 @@ def test_the_closed_form_is_judged_at_the_accuracy_asked(
                & (sol.duality_gap <= target))
         np.testing.assert_array_equal(sol.status[solved] == to.Status.OPTIMAL, met[solved])
         assert sol.success.sum() > (0 if target < 1e-13 else 0.9 * solved.sum())
-    if target < 1e-13:
-        assert (solutions[0].status == to.Status.INACCURATE).any()
 
 
 @pytest.mark.parametrize("objective", ["min_sum", "min_norm"])
