@@ -17,7 +17,7 @@ from tension_opt.dynamics.intervals import StageChecks
 from tension_opt.dynamics.stage_lp import StageLP
 from tension_opt.status import Status, status_array
 
-__all__ = ["controllable_sets", "failed_points", "forward_pass", "reachability"]
+__all__ = ["controllable_sets", "failed_points", "forward_pass", "polish", "reachability"]
 
 #: Forward-pass retries, each lowering x_k by this fraction, on a barely infeasible LP.
 _RETRIES, _BACKOFF = 8, 1e-7
@@ -43,13 +43,16 @@ def controllable_sets(lp: StageLP) -> tuple[NDArray, int | None, str]:
     return sets, None, "optimal"
 
 
-def forward_pass(lp: StageLP, sets: NDArray) -> tuple[NDArray, NDArray, str]:
-    """Greedy forward pass: ``x`` (K,), ``u`` (K,) and an outcome."""
+def forward_pass(lp: StageLP, sets: NDArray, cap: NDArray | None = None
+                 ) -> tuple[NDArray, NDArray, str]:
+    """Greedy forward pass: ``x`` (K,), ``u`` (K,) and an outcome; with ``cap`` (K,),
+    ``x`` kept at or below it where the controllable sets allow."""
     K = lp.checks.K
     ds = np.diff(lp.checks.grid)
     x, u = np.zeros(K), np.zeros(K)
+    top = sets[:, 1] if cap is None else np.minimum(sets[:, 1], np.maximum(cap, sets[:, 0]))
     for k in range(K - 1):
-        nxt = (sets[k + 1, 0], sets[k + 1, 1])
+        nxt = (sets[k + 1, 0], top[k + 1])
         for _ in range(_RETRIES):
             outcome, z = lp.solve(k, (-1.0, 0.0), (x[k], x[k]), nxt)
             if outcome != "infeasible" or x[k] == 0.0:
@@ -57,7 +60,7 @@ def forward_pass(lp: StageLP, sets: NDArray) -> tuple[NDArray, NDArray, str]:
             x[k] *= 1.0 - _BACKOFF  # the LP's tolerance left x_k just outside
         if outcome != "optimal" or z is None:
             return x, u, outcome
-        x[k + 1] = min(max(x[k] + 2.0 * ds[k] * z[0], sets[k + 1, 0]), sets[k + 1, 1])
+        x[k + 1] = min(max(x[k] + 2.0 * ds[k] * z[0], sets[k + 1, 0]), top[k + 1])
         u[k] = (x[k + 1] - x[k]) / (2.0 * ds[k])
     # At rest at the end, the arrival's s'' (feasible there: the last interval's end).
     u[K - 1] = u[K - 2]
@@ -78,6 +81,21 @@ def reachability(checks: StageChecks, v_max: NDArray, a_max: NDArray, slack: flo
     if outcome != "optimal":
         fail = 0 if fail is None else fail
     return x, u, sets, outcome, fail, lp.count
+
+
+def polish(checks: StageChecks, x: NDArray, v_max: NDArray, a_max: NDArray, slack: float
+           ) -> tuple[NDArray, NDArray, NDArray, str, int]:
+    """An approximate timing ``x`` (K,) made exact: the reachability passes with ``x``
+    as a cap, so that each ``s'^2`` is the largest that the exact LPs allow at or below
+    ``x`` (an interior-point solver's answer is feasible and optimal only to its
+    tolerance, and the duration is sensitive to a small ``s'^2``). Returns ``x, u``,
+    the controllable sets, an outcome and the number of LPs."""
+    lp = StageLP(checks, v_max, a_max, slack)
+    sets, fail, outcome = controllable_sets(lp)
+    if fail is not None:
+        return x, np.full(checks.K, np.nan), sets, outcome, lp.count
+    x, u, outcome = forward_pass(lp, sets, cap=x)
+    return x, u, sets, outcome, lp.count
 
 
 def failed_points(checks: StageChecks, v_max: NDArray, a_max: NDArray, outcome: str

@@ -3,8 +3,8 @@
 At grid point ``k`` the variables are the path acceleration ``u = s''``, the squared
 path speed ``x = s'^2`` and one tension vector for each of the grid point's checks
 (:class:`~tension_opt.dynamics.intervals.StageChecks`: the point itself, the end of
-the interval it drives, points inside), each scaled by a typical tension ``sigma_j``
-(the static wrench's largest component) so that the solver sees numbers of order one.
+the interval it drives, points inside), each scaled by its tension scale ``sigma_j``
+(:func:`check_limits`) so that the solver sees numbers of order one.
 A check ``j`` at ``d_j = s_j - s_k`` reads::
 
     A_j T_j = (a_j + 2 d_j b_j) u + b_j x + c_j,   t_min + slack <= T_j <= t_max - slack,
@@ -20,6 +20,8 @@ from numpy.typing import NDArray
 
 from tension_opt.dynamics.intervals import StageChecks
 from tension_opt.dynamics.lp import solve_lp
+from tension_opt.problem.form import typical_tension
+from tension_opt.tolerances import UB_SHARE
 
 __all__ = ["StageLP", "check_limits"]
 
@@ -28,9 +30,17 @@ def check_limits(checks: StageChecks, v_max: NDArray, slack: float
                  ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """The checks' tension scale ``sigma`` (J,), the tension bounds kept ``slack`` times
     it inside the bounds (J, m) each, and ``x_max`` (J,): the largest ``x + 2 d u`` the
-    velocity limits leave at each check (inf: none)."""
+    velocity limits leave at each check (inf: none).
+
+    ``sigma`` is the problem's own: the typical tension of the static wrench
+    (:func:`~tension_opt.problem.form.typical_tension`), floored by
+    :data:`~tension_opt.tolerances.UB_SHARE` of the largest finite upper bound (the
+    reference tension of a tension solve), so that a robot's mass and bounds scaled
+    together leave the timing as it is.
+    """
     pts = checks.points
-    sigma = np.maximum(np.abs(pts.c).max(axis=1), 1.0)
+    top = np.where(np.isfinite(pts.ub), pts.ub, 0.0).max(axis=1, initial=0.0)
+    sigma = np.maximum(typical_tension(pts.A, pts.c, pts.lb), UB_SHARE * top)
     gap = np.minimum(slack * sigma[:, None], 0.5 * (pts.ub - pts.lb))
     with np.errstate(divide="ignore"):
         x_max = np.min((v_max / np.abs(pts.V)) ** 2, axis=1)
@@ -46,7 +56,8 @@ class StageLP:
     v_max, a_max : ndarray, shape (n,)
         Limits of the velocity and acceleration coordinates (inf: none).
     slack : float
-        The tensions stay this fraction of ``sigma_j`` inside their bounds, so that the
+        The tensions stay this fraction of ``sigma_j`` (their tension scale,
+        :func:`check_limits`) inside their bounds, so that the
         timing's wrenches are strictly feasible (a wrench on the boundary of the
         feasible set is held by a single, degenerate tension vector).
     """

@@ -24,7 +24,9 @@ motion limit exceeded. Two solvers:
 ``"convex"`` (default)
     The convex program of Verscheure et al. (2009): minimise the traversal time
     ``sum 2 ds_k / (sqrt(x_k) + sqrt(x_{k+1}))`` over ``(u, x, T)`` of every point at
-    once (cvxpy, Clarabel) (:mod:`tension_opt.dynamics.timing_convex`).
+    once (cvxpy, Clarabel) (:mod:`tension_opt.dynamics.timing_convex`), its answer
+    made exact by the reachability passes capped by it
+    (:func:`~tension_opt.dynamics.reachability.polish`).
 
 The convex program finds the global optimum of the discretised problem. The greedy
 forward pass of the reachability scheme is optimal when the largest speed reachable
@@ -56,7 +58,7 @@ from tension_opt.dynamics.intervals import (
     initial_checks,
 )
 from tension_opt.dynamics.path import PathSpline, PathStages
-from tension_opt.dynamics.reachability import failed_points, reachability
+from tension_opt.dynamics.reachability import failed_points, polish, reachability
 from tension_opt.dynamics.timed import TimedTrajectory
 from tension_opt.dynamics.timing_convex import convex_timing
 from tension_opt.errors import InvalidInputError
@@ -222,7 +224,9 @@ def _solve(checks: StageChecks, vmax: NDArray, amax: NDArray, slack: float, meth
     if method == "convex":
         x, u, outcome = convex_timing(checks, vmax, amax, slack)
         if outcome == "optimal":
-            return x, u, np.full((checks.K, 2), np.nan), outcome, None, 0, method
+            x, u, sets, outcome, count = polish(checks, x, vmax, amax, slack)
+            if outcome == "optimal":
+                return x, u, sets, outcome, None, count, method
     # Also what tells an unbounded or infeasible path from a convex solver's failure.
     x, u, sets, outcome, fail, count = reachability(checks, vmax, amax, slack)
     return x, u, sets, outcome, fail, count, (
@@ -293,9 +297,10 @@ def time_optimal(
     wrench : array_like, shape (n,) or (K, n), optional
         External wrench besides gravity and inertia (N, N m).
     tension_slack, active_tol : float
-        Keep the tensions this fraction of a typical tension (N) inside their bounds,
-        beyond the LPs' tolerance (costs as much time, relative), in [0, 0.5);
-        relative tolerance for reporting a limit as active, in [0, 1).
+        Keep the tensions this fraction of the tension scale (``check_limits`` of
+        :mod:`~tension_opt.dynamics.stage_lp`) inside their bounds, beyond the LPs'
+        tolerance (costs as much time, relative), in [0, 0.5); relative tolerance for
+        reporting a limit as active, in [0, 1).
     **options
         Passed to the tension backend; ``previous`` (K, m): the tensions a smoothed
         objective stays close to, point by point.

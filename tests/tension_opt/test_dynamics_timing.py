@@ -194,6 +194,30 @@ def test_a_timing_outside_the_tensions_between_grid_points_is_inaccurate(
     assert np.isfinite(res.tensions).all()
 
 
+@pytest.mark.parametrize("case", ["study", "cogiro"])
+@pytest.mark.parametrize("method", ["convex", "reachability"])
+@pytest.mark.parametrize("factor", [1e-6, 1e3])
+def test_scaling_mass_and_bounds_together_leaves_the_timing_unchanged(
+        case: str, method: str, factor: float, request) -> None:
+    """Mass, inertia, tension bounds and external wrench times ``factor``: the same
+    motion, the same timing. The tension slack was relative to the static wrench
+    floored at 1 N, so a light robot (tensions of millinewtons at 1e-6) kept a slack of
+    1e-6 N, far more than its 1e-6 of a tension: 9e-5 slower on the study path, 1.7e-3
+    on CoGiRo's loop."""
+    robot, path = request.getfixturevalue(case)
+    wrench = np.array([30.0, -20.0, 10.0, 1.0, -2.0, 3.0])[:robot.dof]
+    reference = dyn.time_optimal(robot, path, gridpoints=50, method=method, wrench=wrench)
+    scaled = robot.with_(mass=robot.mass * factor, inertia=np.asarray(robot.inertia) * factor,
+                         t_min=robot.t_min * factor, t_max=robot.t_max * factor)
+    res = dyn.time_optimal(scaled, path, gridpoints=50, method=method, wrench=wrench * factor)
+    assert reference.success and res.success
+    assert res.duration == pytest.approx(reference.duration, rel=1e-6)
+    # On the boundary both, to the feasibility tolerance of the tension scale.
+    scale = float(robot.t_max.max())
+    assert res.min_margin_between == pytest.approx(factor * reference.min_margin_between,
+                                                   abs=1e-6 * factor * scale)
+
+
 def test_limits_bind_and_are_reported(study) -> None:
     robot, path = study
     res = dyn.time_optimal(robot, path, v_max=2.0, a_max=1.0)
