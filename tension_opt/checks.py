@@ -91,6 +91,20 @@ def per_cable(name: str, value: ArrayLike, m: int) -> NDArray:
 
 
 
+def label(name: str, value: object) -> str:
+    """``value`` as a label (a robot's name): non-empty text that UTF-8 can write, so that
+    a robot file holds it; else the package's error naming ``name``."""
+    if not isinstance(value, str) or not value:
+        raise InvalidInputError(f"{name} must be non-empty text (a label for tables, plots "
+                                f"and robot files), got {value!r}")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError as error:
+        raise InvalidInputError(f"{name} must be non-empty text that UTF-8 can write, got "
+                                f"{value!r}: {error.reason}") from None
+    return str(value)
+
+
 def inertia_tensor(value: ArrayLike) -> NDArray:
     """A (3, 3) inertia tensor (kg m^2), checked symmetric and positive semi-definite."""
     inertia = as_finite("inertia", value, (3, 3))
@@ -98,7 +112,8 @@ def inertia_tensor(value: ArrayLike) -> NDArray:
         raise InvalidInputError(
             f"inertia must be symmetric, got {inertia.tolist()}; give the tensor about the "
             "centre of mass in the platform frame")
-    inertia = 0.5 * (inertia + inertia.T)
+    # halves first: the sum of two entries near the float range's end overflows
+    inertia = np.where(inertia == inertia.T, inertia, 0.5 * inertia + 0.5 * inertia.T)
     smallest = float(np.linalg.eigvalsh(inertia)[0])
     if smallest < -1e-12 * max(1.0, np.abs(inertia).max()):
         raise InvalidInputError(
@@ -128,12 +143,14 @@ def far_coordinate(points: NDArray) -> tuple[tuple[int, ...], str] | None:
                    "the robot")
 
 
-def check_reach(name: str, points: NDArray) -> None:
-    """Raise the package's error naming the first coordinate beyond :data:`MAX_COORDINATE`."""
-    found = far_coordinate(points)
-    if found is not None:
-        index, text = found
-        raise InvalidInputError(name + "".join(f"[{i}]" for i in index) + f" = {text}")
+def check_reach(**arrays: NDArray) -> None:
+    """Raise the package's error naming the first coordinate of the arrays (given by
+    name) beyond :data:`MAX_COORDINATE`."""
+    for name, points in arrays.items():
+        found = far_coordinate(points)
+        if found is not None:
+            index, text = found
+            raise InvalidInputError(name + "".join(f"[{i}]" for i in index) + f" = {text}")
 
 
 def coincident_pair(points: NDArray) -> tuple[int, int] | None:

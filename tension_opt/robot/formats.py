@@ -126,7 +126,11 @@ class _Loader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[mi
 
 class _Dumper(getattr(yaml, "CSafeDumper", yaml.SafeDumper)):  # type: ignore[misc]
     """Safe YAML dumper that quotes text which YAML 1.1 or YAML 1.2 would read as
-    anything but text (``"yes"``, ``"010"``, ``"1e5"``), so that either reads it back."""
+    anything but text (``"yes"``, ``"010"``, ``"1e5"``), so that either reads it back,
+    and writes every value out (no aliases, which the loader refuses)."""
+
+    def ignore_aliases(self, data: Any) -> bool:
+        return True
 
 
 for _name, _pattern, _first in _CORE_SCHEMA:

@@ -32,6 +32,7 @@ from tension_opt.checks import (
     coincident_pair,
     inertia_tensor,
     is_number,
+    label,
     per_cable,
 )
 from tension_opt.errors import InvalidInputError
@@ -92,7 +93,9 @@ def box_inertia(mass: float, attachments: ArrayLike) -> NDArray:
     """
     points = np.asarray(attachments, dtype=float).reshape(-1, 3)
     a, b, c = np.ptp(points, axis=0)
-    return float(mass) / 12.0 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
+    with np.errstate(over="ignore"):  # beyond the float range: refused by name below
+        inertia = float(mass) / 12.0 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
+    return as_finite("box_inertia (mass / 12 * edge^2; give the inertia instead)", inertia)
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,11 +105,10 @@ class CableRobot:
     Parameters
     ----------
     anchors : array_like, shape (m, 3)
-        Drawing points (cable exit points) in the base frame (m), no two at one point
-        (within 1e-9 of the larger of their largest coordinates, or of 1 m).
+        Drawing points (cable exit points) in the base frame (m); no two at one point
+        (``checks.coincident_pair``), all within 1e6 m, as attachments and ``com`` are.
     attachments : array_like, shape (m, 3)
-        Attachment points in the platform frame (m). All zero for a point mass. These,
-        the anchors and ``com`` lie within 1e6 m of the origin (``checks.MAX_COORDINATE``).
+        Attachment points in the platform frame (m). All zero for a point mass.
     mass : float
         Platform (end-effector) mass (kg), > 0.
     kind : {"point3", "planar_point2", "planar3", "spatial6"} or MotionPattern
@@ -124,7 +126,7 @@ class CableRobot:
     home : array_like, optional
         A central pose in the workspace, used as the start of forward kinematics.
     name : str
-        Label used in tables and plots.
+        Label used in tables and plots: non-empty text (as in a robot file).
     inertia : array_like, shape (3, 3), optional
         Inertia tensor of the platform about its centre of mass, in the platform frame
         (kg m^2), symmetric positive semi-definite. By default that of a uniform solid
@@ -150,6 +152,7 @@ class CableRobot:
         pattern = get_kind(self.kind)
         object.__setattr__(self, "pattern", pattern)
         object.__setattr__(self, "kind", pattern.name)
+        object.__setattr__(self, "name", label("name", self.name))
         anchors = as_finite("anchors", self.anchors)
         if anchors.ndim != 2 or anchors.shape[1] != 3 or anchors.shape[0] < 1:
             raise InvalidInputError(f"anchors must have shape (m, 3), got {anchors.shape}")
@@ -159,8 +162,7 @@ class CableRobot:
         if not is_number(self.g) or not np.isfinite(self.g) or self.g < 0:
             raise InvalidInputError(f"g must be finite and >= 0, got {self.g!r}")
         com = as_finite("com", self.com, (3,))
-        for name, points in (("anchors", anchors), ("attachments", attachments), ("com", com)):
-            check_reach(name, points)
+        check_reach(anchors=anchors, attachments=attachments, com=com)
         if not np.isfinite(self.mass * self.g):
             raise InvalidInputError(
                 f"the platform's weight mass * g = {self.mass!r} * {self.g!r} overflows")

@@ -30,7 +30,8 @@ SCALARS = ("mass", "g", "kind", "name", "cable")
 
 
 def assert_same_robot(a: to.CableRobot, b: to.CableRobot) -> None:
-    """Every array equal bit for bit (same dtype, shape and bytes) and every scalar ==."""
+    """Every array equal bit for bit (same dtype, shape and bytes), every scalar == and
+    every float the same bit for bit (-0.0 is not 0.0)."""
     for field in ARRAYS:
         x, y = getattr(a, field), getattr(b, field)
         assert (x is None) == (y is None), field
@@ -38,7 +39,12 @@ def assert_same_robot(a: to.CableRobot, b: to.CableRobot) -> None:
             assert np.array_equal(x, y), field
             assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes(), field
     for field in SCALARS:
-        assert getattr(a, field) == getattr(b, field), field
+        x, y = getattr(a, field), getattr(b, field)
+        assert x == y and repr(x) == repr(y), field
+    if a.cable is not None:
+        for field in ("diameter", "linear_mass", "EA"):
+            x, y = getattr(a.cable, field), getattr(b.cable, field)
+            assert repr(float(x)) == repr(float(y)), f"cable.{field}"
 
 
 # ------------------------------------------------------------------ round trips
@@ -55,7 +61,34 @@ def test_every_preset_round_trips_bit_for_bit(name: str, suffix: str, tmp_path: 
     assert again.read_text() == path.read_text()
 
 
-_coordinate = st.floats(-1e6, 1e6, allow_nan=False)  # includes -0.0, 5e-324, 0.1 + 0.2...
+_TINY_HUGE = [5e-324, 2.2250738585072014e-308, 1e-300, 1e300, 1.7976931348623157e308]
+# within the reach of a robot's points (1e6 m); includes -0.0, 5e-324, 0.1 + 0.2...
+_coordinate = st.one_of(st.floats(-1e6, 1e6, allow_nan=False), st.sampled_from(
+    [-0.0, 5e-324, -5e-324, 2.2250738585072014e-308, 1e6, -1e6, 0.1 + 0.2]))
+
+
+def _positive(low: float, high: float) -> st.SearchStrategy[float]:
+    return st.one_of(st.floats(low, high), st.sampled_from(_TINY_HUGE))
+
+
+def _non_negative(high: float) -> st.SearchStrategy[float]:
+    return st.one_of(st.floats(0.0, high), st.sampled_from([-0.0, 0.0, *_TINY_HUGE]))
+
+
+# Names a YAML or JSON writer could get wrong: YAML 1.1 and 1.2 words and numbers,
+# quotes, indicators, spaces at either end, line breaks, control and unicode characters.
+NAMES = [
+    "", " ", "   ", "yes", "no", "on", "off", "y", "n", "Yes", "NO", "true", "False",
+    "null", "Null", "~", "1e3", "1E3", ".5", "5.", "010", "0o10", "0x10", "0b10", "1_000",
+    "1:30", "-0.0", "+1", "2001-12-14", ".inf", "-.inf", ".nan", "inf", "nan", "  leading",
+    "trailing  ", " both ", "'single'", '"double"', "it's", 'say "hi"', "#comment",
+    "a # b", "a: b", "a:b", "- item", "-", "[1, 2]", "{a: 1}", "&anchor", "*alias", "!tag",
+    "!!str x", "%directive", "@at", "`tick", "|", ">", "?", ",", "<<", "=", "---", "...",
+    "tab\there", "\t", "line\nbreak", "two\n\nbreaks", "trailing\n", "\nleading",
+    "\r\n", "cr\r", "nul\x00", "bell\x07", "del\x7f", "nel\x85", "ls\u2028ps\u2029",
+    "bom\ufeff", "\ufffe\uffff", "nbsp\xa0", "é中文🙂", "\U0010ffff", "word " * 30,
+    "x" * 200, "a  b  " * 20, "a \n b", "back\\slash",
+]
 
 
 @st.composite
@@ -63,25 +96,28 @@ def robots(draw: st.DrawFn) -> to.CableRobot:
     kind = draw(st.sampled_from(sorted(KINDS)))
     m = draw(st.integers(1, 9))
     points = st.lists(st.lists(_coordinate, min_size=3, max_size=3), min_size=m, max_size=m)
-    t_min = draw(st.one_of(st.floats(0, 1e4), st.lists(st.floats(0, 1e4), min_size=m,
+    t_min = draw(st.one_of(_non_negative(1e4), st.lists(_non_negative(1e4), min_size=m,
                                                         max_size=m)))
-    slack = draw(st.one_of(st.just(math.inf), st.floats(0, 1e4)))
+    slack = draw(st.one_of(st.just(math.inf), st.floats(0, 1e4), st.just(1e308)))
     cable = draw(st.one_of(st.none(), st.builds(
-        to.CableProperties, st.floats(1e-6, 1.0), st.floats(0, 100.0),
-        st.one_of(st.just(math.inf), st.floats(1e-3, 1e12)))))
-    inertia = draw(st.one_of(st.none(), st.lists(st.floats(0, 1e3), min_size=3,
+        to.CableProperties, _positive(1e-6, 1.0), _non_negative(100.0),
+        st.one_of(st.just(math.inf), _positive(1e-3, 1e12)))))
+    inertia = draw(st.one_of(st.none(), st.lists(_non_negative(1e3), min_size=3,
                                                  max_size=3).map(np.diag)))
     pattern = KINDS[kind]
     home = draw(st.one_of(st.none(), st.lists(_coordinate, min_size=pattern.pose_size,
                                               max_size=pattern.pose_size)))
+    with np.errstate(over="ignore"):  # a t_max beyond the float range is inf
+        t_max = np.asarray(t_min) + slack
     try:
         return to.CableRobot(
             anchors=np.array(draw(points)), attachments=np.array(draw(points)),
-            mass=draw(st.floats(1e-6, 1e6)), kind=kind, com=draw(st.lists(
-                _coordinate, min_size=3, max_size=3)), g=draw(st.floats(0, 100)),
-            t_min=t_min, t_max=np.asarray(t_min) + slack, cable=cable, home=home,
-            name=draw(st.text(min_size=1, max_size=20)), inertia=inertia)
-    except to.InvalidInputError:  # coinciding anchors
+            mass=draw(_positive(1e-6, 1e6)), kind=kind, com=draw(st.lists(
+                _coordinate, min_size=3, max_size=3)), g=draw(_non_negative(100.0)),
+            t_min=t_min, t_max=t_max, cable=cable, home=home,
+            name=draw(st.one_of(st.sampled_from(NAMES), st.text(max_size=20))),
+            inertia=inertia)
+    except to.InvalidInputError:  # coinciding anchors, an empty name, a weight overflowing
         assume(False)
         raise
 
@@ -94,6 +130,59 @@ def test_any_robot_round_trips_bit_for_bit(robot: to.CableRobot, suffix: str,
     path = tmp_path / f"robot{suffix}"
     robot.to_file(path)
     assert_same_robot(to.CableRobot.from_file(path), robot)
+
+
+@pytest.mark.parametrize("suffix", [".yaml", ".json"])
+@pytest.mark.parametrize("name", NAMES)
+def test_every_name_a_robot_takes_round_trips(name: str, suffix: str, tmp_path: Path) -> None:
+    """A robot named "" was written by to_file and refused by from_file."""
+    anchors = [[0.0, 0.0, 3.0], [2.0, 0.0, 3.0], [0.0, 2.0, 3.0]]
+    if name == "":
+        with pytest.raises(to.InvalidInputError, match=r"^name must be non-empty text"):
+            _point_robot(anchors, name=name)
+        return
+    robot = _point_robot(anchors, name=name)
+    path = tmp_path / f"robot{suffix}"
+    robot.to_file(path)
+    back = to.CableRobot.from_file(path)
+    assert type(back.name) is str and back.name == name
+    assert_same_robot(back, robot)
+
+
+def test_huge_finite_numbers_round_trip_or_are_refused(tmp_path: Path) -> None:
+    """An inertia entry near the float range's end was stored as inf (its symmetrised
+    sum overflowed), and so was a box inertia beyond the range: to_file wrote .inf,
+    which from_file refuses."""
+    anchors = [[0.0, 0.0, 3.0], [2.0, 0.0, 3.0]]
+    huge = 1.7976931348623157e308
+    robot = _point_robot(anchors, inertia=np.diag([huge, 5e-324, -0.0]), mass=huge, g=0.0,
+                         t_min=huge, cable=to.CableProperties(5e-324, huge, huge))
+    assert robot.inertia.diagonal().tolist() == [huge, 5e-324, -0.0]
+    for suffix in (".yaml", ".json"):
+        path = tmp_path / f"huge{suffix}"
+        robot.to_file(path)
+        assert_same_robot(to.CableRobot.from_file(path), robot)
+    with pytest.raises(to.InvalidInputError, match=r"box_inertia .*give the inertia"):
+        _point_robot(anchors, attachments=[[0.0, 0.0, 0.0], [1e6, 1e6, 0.0]], mass=1e300)
+
+
+def test_a_document_sharing_a_list_is_written_out(tmp_path: Path) -> None:
+    """One list object used twice was written as a YAML alias, which the reader refuses."""
+    document = robot_files.robot_document(to.presets.point_xz_4cable())
+    point = [0.0, 0.0, 0.0]
+    document["attachments"] = [point] * len(document["anchors"])
+    path = tmp_path / "shared.yaml"
+    robot_files.write_document(path, document)
+    assert "*" not in path.read_text()
+    assert to.CableRobot.from_file(path).attachments.tolist() == document["attachments"]
+
+
+@pytest.mark.parametrize("name", ["", 5, None, b"robot", "lone \ud800 surrogate"])
+def test_a_name_no_file_can_hold_is_refused_by_the_robot(name: object) -> None:
+    """Each was taken by CableRobot; to_file wrote "" (refused by from_file), "5" and
+    "None" (read back as other names), and failed on the surrogate with UnicodeEncodeError."""
+    with pytest.raises(to.InvalidInputError, match=r"^name must be non-empty text"):
+        _point_robot([[0.0, 0.0, 3.0], [2.0, 0.0, 3.0]], name=name)
 
 
 # ------------------------------------------------------------------ preset files
