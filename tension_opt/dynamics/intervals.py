@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from tension_opt.dynamics.deadline import Deadline
 from tension_opt.dynamics.path import PathSpline, PathStages, path_stages
 from tension_opt.problem.form import typical_tension
 from tension_opt.robot import CableRobot
@@ -306,7 +307,8 @@ def _dips(p: _Samples) -> NDArray:
 
 def between_check(model: PathModel, x: NDArray, u: NDArray, v_max: NDArray,
                   a_max: NDArray, samples: int = BETWEEN_SAMPLES,
-                  spacing: float | None = None) -> Between:
+                  spacing: float | None = None, deadline: Deadline | None = None
+                  ) -> Between:
     """Check the timing ``x, u`` (K,) over each interval: at its start, at ``samples``
     evenly spaced points or more, at most ``spacing`` apart (default: the path's length
     over :data:`BETWEEN_PATH`), the last its end (reached with the interval's ``u``);
@@ -315,13 +317,16 @@ def between_check(model: PathModel, x: NDArray, u: NDArray, v_max: NDArray,
 
     A point is outside the tolerances where its capacity margin is below
     ``-FEASIBILITY_TOL`` times its typical tension, or a velocity or acceleration
-    exceeds its limit by more than :data:`MOTION_TOL` (relative).
+    exceeds its limit by more than :data:`MOTION_TOL` (relative). ``deadline`` is
+    checked between the rounds of points.
     """
+    deadline = deadline or Deadline()
     g = model.stages
     K = g.K
     owner, s = _samples(g.s, samples, spacing or model.spline.length / BETWEEN_PATH)
     p = _measure(model, x, u, v_max, a_max, owner, s)
     for _ in range(BISECTIONS):
+        deadline.check()
         split = np.flatnonzero(_dips(p))
         if not split.size:
             break

@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from tension_opt.dynamics.deadline import Deadline
 from tension_opt.dynamics.intervals import StageChecks
 from tension_opt.dynamics.stage_lp import StageLP
 from tension_opt.status import Status, status_array
@@ -67,11 +68,12 @@ def forward_pass(lp: StageLP, sets: NDArray, cap: NDArray | None = None
     return x, u, "optimal"
 
 
-def reachability(checks: StageChecks, v_max: NDArray, a_max: NDArray, slack: float
+def reachability(checks: StageChecks, v_max: NDArray, a_max: NDArray, slack: float,
+                 deadline: Deadline | None = None
                  ) -> tuple[NDArray, NDArray, NDArray, str, int | None, int]:
     """TOPP-RA: ``x, u`` (K,), controllable sets (K, 2), outcome, the failing point
     (or None) and the number of LPs."""
-    lp = StageLP(checks, v_max, a_max, slack)
+    lp = StageLP(checks, v_max, a_max, slack, deadline)
     sets, fail, outcome = controllable_sets(lp)
     x = u = np.full(checks.K, np.nan)
     if fail is None and sets[0, 0] > 1e-9 * max(1.0, sets[0, 1]):
@@ -83,14 +85,14 @@ def reachability(checks: StageChecks, v_max: NDArray, a_max: NDArray, slack: flo
     return x, u, sets, outcome, fail, lp.count
 
 
-def polish(checks: StageChecks, x: NDArray, v_max: NDArray, a_max: NDArray, slack: float
-           ) -> tuple[NDArray, NDArray, NDArray, str, int]:
+def polish(checks: StageChecks, x: NDArray, v_max: NDArray, a_max: NDArray, slack: float,
+           deadline: Deadline | None = None) -> tuple[NDArray, NDArray, NDArray, str, int]:
     """An approximate timing ``x`` (K,) made exact: the reachability passes with ``x``
     as a cap, so that each ``s'^2`` is the largest that the exact LPs allow at or below
     ``x`` (an interior-point solver's answer is feasible and optimal only to its
     tolerance, and the duration is sensitive to a small ``s'^2``). Returns ``x, u``,
     the controllable sets, an outcome and the number of LPs."""
-    lp = StageLP(checks, v_max, a_max, slack)
+    lp = StageLP(checks, v_max, a_max, slack, deadline)
     sets, fail, outcome = controllable_sets(lp)
     if fail is not None:
         return x, np.full(checks.K, np.nan), sets, outcome, lp.count
@@ -98,13 +100,13 @@ def polish(checks: StageChecks, x: NDArray, v_max: NDArray, a_max: NDArray, slac
     return x, u, sets, outcome, lp.count
 
 
-def failed_points(checks: StageChecks, v_max: NDArray, a_max: NDArray, outcome: str
-                  ) -> NDArray:
+def failed_points(checks: StageChecks, v_max: NDArray, a_max: NDArray, outcome: str,
+                  deadline: Deadline | None = None) -> NDArray:
     """Per-point status of a path without a timing: ``INFEASIBLE`` where no ``(u, x)``
     at all is feasible, the rest ``NOT_RUN`` (``UNBOUNDED`` everywhere if unbounded)."""
     if outcome == "unbounded":
         return status_array(checks.K, Status.UNBOUNDED)
-    lp = StageLP(checks, v_max, a_max)
+    lp = StageLP(checks, v_max, a_max, deadline=deadline)
     status = status_array(checks.K, Status.NOT_RUN)
     for k in range(checks.K):
         if lp.solve(k, (0.0, 0.0), (0.0, np.inf), None)[0] == "infeasible":

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from tension_opt.dynamics.deadline import Deadline
 from tension_opt.dynamics.intervals import StageChecks
 from tension_opt.dynamics.lp import solve_lp
 from tension_opt.problem.form import typical_tension
@@ -60,11 +61,14 @@ class StageLP:
         :func:`check_limits`) inside their bounds, so that the
         timing's wrenches are strictly feasible (a wrench on the boundary of the
         feasible set is held by a single, degenerate tension vector).
+    deadline : Deadline, optional
+        Every LP checks it first (:class:`~tension_opt.dynamics.deadline.OutOfTime`).
     """
 
     def __init__(self, checks: StageChecks, v_max: NDArray, a_max: NDArray,
-                 slack: float = 0.0) -> None:
+                 slack: float = 0.0, deadline: Deadline | None = None) -> None:
         self.checks = checks
+        self.deadline = deadline or Deadline()
         self.m = checks.points.A.shape[2]
         self.sigma, self.lb, self.ub, self.x_max = check_limits(checks, v_max, slack)
         self.au, self.vu = checks.wrench_u(), checks.accel_u()
@@ -117,6 +121,7 @@ class StageLP:
         z : ndarray, shape (2 + m,) or None
             ``(u, x, T)`` with ``T`` the tensions (N) at the grid point itself.
         """
+        self.deadline.check()
         rows, lo, hi, x_top = self._rows(k)
         nvar = rows[0].shape[1]
         grid = self.checks.grid

@@ -50,6 +50,7 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt.backends.registry import choose_backend
 from tension_opt.checks import as_float_array, is_number
 from tension_opt.distribution.solution import solution_of
+from tension_opt.dynamics.deadline import Deadline, OutOfTime
 from tension_opt.dynamics.intervals import (
     Between,
     PathModel,
@@ -217,20 +218,21 @@ class TimingResult:
         return frame
 
 
-def _solve(checks: StageChecks, vmax: NDArray, amax: NDArray, slack: float, method: str
+def _solve(run: _Run, checks: StageChecks
            ) -> tuple[NDArray, NDArray, NDArray, str, int | None, int, str]:
-    """Run ``method``: ``x, u``, controllable sets, outcome, failing point, LP count and
+    """Run the method: ``x, u``, controllable sets, outcome, failing point, LP count and
     the method that gave the answer."""
-    if method == "convex":
-        x, u, outcome = convex_timing(checks, vmax, amax, slack)
+    limits = (run.vmax, run.amax, run.slack)
+    if run.method == "convex":
+        x, u, outcome = convex_timing(checks, *limits, deadline=run.deadline)
         if outcome == "optimal":
-            x, u, sets, outcome, count = polish(checks, x, vmax, amax, slack)
+            x, u, sets, outcome, count = polish(checks, x, *limits, run.deadline)
             if outcome == "optimal":
-                return x, u, sets, outcome, None, count, method
+                return x, u, sets, outcome, None, count, run.method
     # Also what tells an unbounded or infeasible path from a convex solver's failure.
-    x, u, sets, outcome, fail, count = reachability(checks, vmax, amax, slack)
+    x, u, sets, outcome, fail, count = reachability(checks, *limits, run.deadline)
     return x, u, sets, outcome, fail, count, (
-        "reachability" if method == "reachability" else "convex+reachability")
+        "reachability" if run.method == "reachability" else "convex+reachability")
 
 
 def _tensions(robot: CableRobot, stages: PathStages, W: NDArray,
@@ -268,6 +270,7 @@ def time_optimal(
     wrench: ArrayLike | None = None,
     tension_slack: float = 1e-6,
     active_tol: float = 1e-5,
+    time_limit: float | None = None,
     **options: Any,
 ) -> TimingResult:
     """The fastest timing of a path from rest to rest within the tension limits.
@@ -286,71 +289,83 @@ def time_optimal(
         Grid of ``s``, 3 to 100000 points (``PathSpline.grid``): the poses' own
         (default), a count of evenly spaced ones, or the values.
     method : {"convex", "reachability"}
-        The convex time minimisation through cvxpy (default: the global optimum of the
-        discretised problem), or TOPP-RA's greedy passes with HiGHS (module docstring).
-        Where the convex solver finds no timing, the reachability passes run and tell
-        why (``result.method`` is then ``"convex+reachability"``).
-    structure : array_like, shape (K, n, m), optional
-        Structure matrices at the grid points replacing the straight-cable ones.
-    bounds : (array_like, array_like), each (m,) or (K, m), optional
-        Tension bounds at the grid points replacing the robot's (N).
-    wrench : array_like, shape (n,) or (K, n), optional
-        External wrench besides gravity and inertia (N, N m).
+        The convex time minimisation (default: the global optimum of the discretised
+        problem), or TOPP-RA's greedy passes (module docstring). Where the convex
+        solver finds no timing, the reachability passes run and tell why
+        (``result.method`` is then ``"convex+reachability"``).
+    structure, bounds, wrench : array_like, optional
+        Structure matrices (K, n, m) and tension bounds (each (m,) or (K, m), N) at the
+        grid points replacing the robot's; external wrench besides gravity and inertia
+        ((n,) or (K, n), N, N m). Interpolated linearly between the grid points.
     tension_slack, active_tol : float
         Keep the tensions this fraction of the tension scale (``check_limits`` of
         :mod:`~tension_opt.dynamics.stage_lp`) inside their bounds, beyond the LPs'
         tolerance (costs as much time, relative), in [0, 0.5); relative tolerance for
         reporting a limit as active, in [0, 1).
+    time_limit : float, optional
+        Seconds the whole call may take (default: none). A timing not found by then is
+        none: ``duration = inf``, every point ``MAX_ITER``, ``extras["stopped"] =
+        "time_limit"``; the tension solve of a timing found gets the time left.
     **options
         Passed to the tension backend; ``previous`` (K, m): the tensions a smoothed
-        objective stays close to, point by point.
+        objective stays close to.
 
     Returns
     -------
     TimingResult
         ``times``, ``duration``, motion, ``tensions``, per-point ``status``, the margin
-        at and between the grid points and the active limits. A motion that, after
-        :data:`BETWEEN_ROUNDS` rounds of checks, still leaves the feasible wrenches
-        between two grid points (a margin below ``-FEASIBILITY_TOL`` times the typical
-        tension) or a motion limit is ``INACCURATE`` there, its figures kept. A path
-        that cannot be timed (a point the robot cannot hold, no way from rest to rest,
-        or a timing that stops the path: ``STALLED``) has ``duration = inf`` and
-        per-point statuses; it raises nothing.
+        at and between the grid points and the active limits. A motion still outside
+        the feasible wrenches (margin below ``-FEASIBILITY_TOL`` times the typical
+        tension) or a motion limit between grid points after :data:`BETWEEN_ROUNDS`
+        rounds of checks is ``INACCURATE`` there, its figures kept. A path that cannot
+        be timed (a point the robot cannot hold, no way from rest to rest, a timing
+        that stops the path: ``STALLED``) has ``duration = inf``; nothing is raised.
 
     Raises
     ------
     InvalidInputError
-        On a bad path, limits, grid, structure, bounds, method or setting.
+        On a bad path, limits, grid, structure, bounds, method, setting or time limit.
     """
     t0 = time.perf_counter()
     _check_settings(method, tension_slack=(tension_slack, 0.5), active_tol=(active_tol, 1.0))
     spline = path if isinstance(path, PathSpline) else PathSpline.through(robot, path)
     model = PathModel.build(robot, spline, spline.grid(gridpoints), structure=structure,
                             bounds=bounds, wrench=wrench)
-    vmax, amax = (motion_limits(k, v, robot.dof) for k, v in (("v_max", v_max),
-                                                              ("a_max", a_max)))
-    run = _Run(robot, model, vmax, amax, as_problem(objective), bounds is not None, backend,
-               options, active_tol, t0, {"stages": model.stages, "path": spline,
-                                         "kind": robot.kind})
-    return _rounds(run, initial_checks(model), tension_slack, method)
+    run = _Run(robot, model, *_limits(robot, v_max, a_max), tension_slack, method,
+               as_problem(objective), bounds is not None, backend, options, active_tol, t0,
+               Deadline.after(time_limit, t0), {"path": spline, "kind": robot.kind})
+    return _rounds(run, initial_checks(model))
 
 
-def _rounds(run: _Run, checks: StageChecks, slack: float, method: str) -> TimingResult:
+def _limits(robot: CableRobot, v_max: float | ArrayLike | None,
+            a_max: float | ArrayLike | None) -> tuple[NDArray, NDArray]:
+    return motion_limits("v_max", v_max, robot.dof), motion_limits("a_max", a_max, robot.dof)
+
+
+def _rounds(run: _Run, checks: StageChecks) -> TimingResult:
     """Solve, check between the grid points, add the checks that failed, and again: up
-    to :data:`BETWEEN_ROUNDS` times."""
-    count = 0
-    for rounds in range(BETWEEN_ROUNDS + 1):
-        x, u, sets, outcome, fail, lps, used = _solve(checks, run.vmax, run.amax, slack,
-                                                      method)
-        count += lps
-        if fail is not None:
-            run.extras["checks"] = checks
-            return _no_timing(run, failed_points(checks, run.vmax, run.amax, outcome), sets,
-                              used, count)
-        between = between_check(run.model, x, u, run.vmax, run.amax)
-        if not between.bad.any() or rounds == BETWEEN_ROUNDS:
-            break
-        checks = checks.with_points(run.model, between.owner, between.at)
+    to :data:`BETWEEN_ROUNDS` times; no timing, every point ``MAX_ITER``, where the time
+    limit passes first."""
+    count, used = 0, run.method
+    run.extras["stages"] = run.model.stages
+    try:
+        for rounds in range(BETWEEN_ROUNDS + 1):
+            x, u, sets, outcome, fail, lps, used = _solve(run, checks)
+            count += lps
+            if fail is not None:
+                run.extras["checks"] = checks
+                status = failed_points(checks, run.vmax, run.amax, outcome, run.deadline)
+                return _no_timing(run, status, sets, used, count)
+            between = between_check(run.model, x, u, run.vmax, run.amax,
+                                    deadline=run.deadline)
+            if not between.bad.any() or rounds == BETWEEN_ROUNDS:
+                break
+            checks = checks.with_points(run.model, between.owner, between.at)
+    except OutOfTime:
+        run.extras.update(checks=checks, stopped="time_limit")
+        K = run.model.stages.K
+        return _no_timing(run, status_array(K, Status.MAX_ITER), np.full((K, 2), np.nan),
+                          used, count)
     run.extras["checks"] = checks
     return _timed(run, x, u, sets, between, used, count)
 
@@ -363,12 +378,15 @@ class _Run:
     model: PathModel
     vmax: NDArray
     amax: NDArray
+    slack: float
+    method: str
     problem: TensionProblem
     custom_bounds: bool
     backend: Any
     options: dict[str, Any]
     active_tol: float
     t0: float
+    deadline: Deadline
     extras: dict[str, Any]
 
 
@@ -413,8 +431,11 @@ def _timed(run: _Run, x: NDArray, u: NDArray, sets: NDArray, between: Between, m
     times = np.concatenate([[0.0], np.cumsum(dt)])
     vel, acc = stages.motion(u, x)
     W = stages.wrenches(u, x)
+    options = run.options
+    if run.deadline.limited:  # the time left, a little at least
+        options = {**options, "time_limit": max(run.deadline.remaining(), 1e-3)}
     T, status = _tensions(run.robot, stages, W, run.problem, run.custom_bounds, run.backend,
-                          run.options)
+                          options)
     # Outside the feasible set (or a motion limit) between grid points after the last
     # round of checks: the figures stand, not as optimal.
     status[:-1][between.bad & (status[:-1] == Status.OPTIMAL)] = Status.INACCURATE

@@ -1,4 +1,4 @@
-"""The time-optimal timing as one convex program (Verscheure et al. 2009), through cvxpy.
+"""The time-optimal timing as one convex program (Verscheure et al. 2009), by Clarabel.
 
 Over the squared path speeds ``x_k = s'^2``, path accelerations ``u_k = s''`` and one
 tension vector ``T_j`` for each check ``j`` of a grid point ``k = o(j)``
@@ -12,8 +12,10 @@ intervals, points inside them), at once::
 
 the same constraints as the reachability scheme of :mod:`tension_opt.dynamics.timing`
 (:class:`~tension_opt.dynamics.stage_lp.StageLP`), so both give the same timing. The
-objective is convex (the inverse of a concave function), a second-order cone program
-for Clarabel.
+objective is convex (the inverse of a concave function); with ``r_k <= sqrt(x_k)``
+(``r_k^2 <= x_k``) and ``t_k >= 1 / (r_k + r_{k+1})`` as second-order cones it is a
+second-order cone program, built here as Clarabel's sparse data (no modelling layer:
+the build takes milliseconds, and the solver's time limit bounds the rest).
 """
 
 from __future__ import annotations
@@ -23,22 +25,137 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from tension_opt.backends.base import quiet_solvers
+from tension_opt.dynamics.deadline import Deadline, OutOfTime
 from tension_opt.dynamics.intervals import StageChecks
 from tension_opt.dynamics.stage_lp import check_limits
 
-__all__ = ["convex_timing"]
+__all__ = ["convex_timing", "timing_cone_program"]
 
 
-def _owner_rows(values: NDArray, owner: NDArray, K: int) -> sp.csr_matrix:
-    """Sparse (J n, K) matrix with ``values[j]`` (n,) in rows j n... of column ``owner[j]``."""
-    J, n = values.shape
-    return sp.csr_matrix((values.ravel(), (np.arange(J * n), np.repeat(owner, n))),
-                         shape=(J * n, K))
+class _Rows:
+    """Rows ``A z + s = b`` of one cone, appended block by block (COO triplets)."""
+
+    def __init__(self) -> None:
+        self.count = self.last = 0
+        self.r: list[NDArray] = []
+        self.c: list[NDArray] = []
+        self.v: list[NDArray] = []
+        self.b: list[NDArray] = []
+
+    def add(self, rows: NDArray, cols: NDArray, vals: NDArray, rhs: NDArray) -> None:
+        """A block of ``len(rhs)`` rows; ``rows`` index into it."""
+        self.last = self.count
+        self.b.append(np.asarray(rhs, dtype=float))
+        self.count += len(rhs)
+        self.more(rows, cols, vals)
+
+    def more(self, rows: NDArray, cols: NDArray, vals: NDArray) -> None:
+        """More entries in the last block's rows."""
+        self.r.append(np.asarray(rows) + self.last)
+        self.c.append(np.asarray(cols))
+        self.v.append(np.asarray(vals, dtype=float))
+
+
+def _equalities(checks: StageChecks, sigma: NDArray, iu: int, ix: int, itau: int
+                ) -> _Rows:
+    """Equilibrium of every check, the path's kinematics and rest at both ends."""
+    pts, K, own = checks.points, checks.K, checks.owner
+    J, n, m = pts.A.shape
+    eq = _Rows()
+    row = np.arange(J * n).reshape(J, n)
+    tau = itau + np.arange(J * m).reshape(J, m)
+    eq.add(np.repeat(row, m, axis=1).ravel(), np.tile(tau, (1, n)).ravel(),
+           pts.A.reshape(J, n * m).ravel(), (pts.c / sigma[:, None]).ravel())
+    eq.more(row.ravel(), np.repeat(iu + own, n), (-checks.wrench_u() / sigma[:, None]).ravel())
+    eq.more(row.ravel(), np.repeat(ix + own, n), (-pts.b / sigma[:, None]).ravel())
+    ds = np.diff(checks.grid)
+    k = np.arange(K - 1)
+    eq.add(np.concatenate([k, k, k]), np.concatenate([ix + k + 1, ix + k, iu + k]),
+           np.concatenate([np.ones(K - 1), -np.ones(K - 1), -2.0 * ds]), np.zeros(K - 1))
+    eq.add(np.array([0, 1]), np.array([ix, ix + K - 1]), np.ones(2), np.zeros(2))
+    return eq
+
+
+def _inequalities(checks: StageChecks, limits: tuple[NDArray, NDArray, NDArray, NDArray],
+                  a_max: NDArray, cols: tuple[int, int, int, int]) -> _Rows:
+    """``x >= 0``, ``r >= 0``, the tension bounds, speed and acceleration limits."""
+    sigma, lb, ub, x_max = limits
+    iu, ix, itau, ir = cols
+    pts, K, own = checks.points, checks.K, checks.owner
+    J, _, m = pts.A.shape
+    le = _Rows()
+    k = np.arange(K)
+    le.add(np.arange(2 * K), np.concatenate([ix + k, ir + k]), -np.ones(2 * K), np.zeros(2 * K))
+    tau = itau + np.arange(J * m)
+    low = (lb / sigma[:, None]).ravel()
+    le.add(np.arange(J * m), tau, -np.ones(J * m), -low)
+    high = (ub / sigma[:, None]).ravel()
+    fin = np.flatnonzero(np.isfinite(high))
+    le.add(np.arange(fin.size), tau[fin], np.ones(fin.size), high[fin])
+    sp_ = np.flatnonzero(np.isfinite(x_max))  # x + 2 d u <= x_max
+    r = np.arange(sp_.size)
+    le.add(np.concatenate([r, r]), np.concatenate([ix + own[sp_], iu + own[sp_]]),
+           np.concatenate([np.ones(sp_.size), 2.0 * checks.offset[sp_]]), x_max[sp_])
+    limited = np.flatnonzero(np.isfinite(a_max))
+    if limited.size:  # |(V + 2 d C) u + C x| <= a_max
+        vu, C = checks.accel_u()[:, limited].ravel(), pts.C[:, limited].ravel()
+        o = np.repeat(own, limited.size)
+        r = np.arange(o.size)
+        bound = np.tile(a_max[limited], J)
+        for sign in (1.0, -1.0):
+            le.add(np.concatenate([r, r]), np.concatenate([iu + o, ix + o]),
+                   sign * np.concatenate([vu, C]), bound)
+    return le
+
+
+def _cones(K: int, ix: int, ir: int, it: int) -> _Rows:
+    """``r_k^2 <= x_k`` as ``(x_k + 1, 2 r_k, x_k - 1)`` and ``t_k (r_k + r_{k+1}) >= 1``
+    as ``(t_k + w, 2, t_k - w)``, ``w = r_k + r_{k+1}``, each in a cone of size 3."""
+    soc = _Rows()
+    k = np.arange(K)
+    base = 3 * k
+    soc.add(np.concatenate([base, base + 1, base + 2]), np.concatenate([ix + k, ir + k, ix + k]),
+            np.concatenate([-np.ones(K), -2.0 * np.ones(K), -np.ones(K)]),
+            np.tile([1.0, 0.0, -1.0], K))
+    k = np.arange(K - 1)
+    base = 3 * k
+    rows = np.concatenate([base, base, base, base + 2, base + 2, base + 2])
+    cols = np.concatenate([it + k, ir + k, ir + k + 1, it + k, ir + k, ir + k + 1])
+    one = np.ones(K - 1)
+    soc.add(rows, cols, np.concatenate([-one, -one, -one, -one, one, one]),
+            np.tile([0.0, 2.0, 0.0], K - 1))
+    return soc
+
+
+def timing_cone_program(checks: StageChecks, v_max: NDArray, a_max: NDArray, slack: float
+                        ) -> tuple[sp.csc_matrix, NDArray, list[int], int]:
+    """Clarabel's data of the timing program: ``A`` (rows, z), ``b``, the sizes of the
+    zero, non-negative and (each 3) second-order cones as ``[zero, nonneg, socs]``, and
+    the number of variables ``z = (u, x, T / sigma, r, t)``."""
+    K = checks.K
+    J, _, m = checks.points.A.shape
+    limits = check_limits(checks, v_max, slack)
+    iu, ix, itau = 0, K, 2 * K
+    ir = itau + J * m
+    it = ir + K
+    nz = it + K - 1
+    blocks = [_equalities(checks, limits[0], iu, ix, itau),
+              _inequalities(checks, limits, a_max, (iu, ix, itau, ir)), _cones(K, ix, ir, it)]
+    rows, cols, vals, rhs, offset = [], [], [], [], 0
+    for block in blocks:
+        rows += [r + offset for r in block.r]
+        cols += block.c
+        vals += block.v
+        rhs += block.b
+        offset += block.count
+    A = sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(offset, nz))
+    return A, np.concatenate(rhs), [blocks[0].count, blocks[1].count, 2 * K - 1], nz
 
 
 def convex_timing(checks: StageChecks, v_max: NDArray, a_max: NDArray, slack: float = 0.0,
-                  solver: str = "CLARABEL") -> tuple[NDArray, NDArray, str]:
-    """Solve the convex timing program of ``checks``.
+                  deadline: Deadline | None = None) -> tuple[NDArray, NDArray, str]:
+    """Solve the convex timing program of ``checks`` with Clarabel.
 
     Parameters
     ----------
@@ -46,60 +163,48 @@ def convex_timing(checks: StageChecks, v_max: NDArray, a_max: NDArray, slack: fl
     v_max, a_max : ndarray, shape (n,)
         Velocity and acceleration limits (inf: none).
     slack : float
-        Keep the tensions this fraction of a typical tension inside their bounds.
-    solver : str
-        A cvxpy conic solver.
+        Keep the tensions this fraction of their tension scale inside their bounds.
+    deadline : Deadline, optional
+        Clarabel gets the time left as its limit;
+        :class:`~tension_opt.dynamics.deadline.OutOfTime` once it has passed.
 
     Returns
     -------
     x, u : ndarray, shape (K,)
-        Squared path speed and path acceleration at the grid points.
+        Squared path speed and path acceleration at the grid points (``u`` at the last
+        point, at rest, the arrival's).
     outcome : {"optimal", "infeasible", "unbounded", "error"}
+        ``"optimal"`` also for Clarabel's nearly solved (residuals a few times its
+        tolerance of 1e-8): the timing makes the answer exact and checks it along the
+        path.
     """
-    import cvxpy as cp
+    import clarabel
 
-    pts, K, own = checks.points, checks.K, checks.owner
-    J, _, m = pts.A.shape
-    sig, lb, ub, x_max = check_limits(checks, v_max, slack)
-    ds = np.diff(checks.grid)
-    x, u = cp.Variable(K), cp.Variable(K)
-    tau = cp.Variable(J * m)
-    A_blk = sp.block_diag(list(pts.A), format="csr")
-    constraints = [
-        A_blk @ tau - _owner_rows(checks.wrench_u() / sig[:, None], own, K) @ u
-        - _owner_rows(pts.b / sig[:, None], own, K) @ x == (pts.c / sig[:, None]).ravel(),
-        x[1:] == x[:-1] + 2 * cp.multiply(ds, u[:-1]),
-        x[0] == 0, x[K - 1] == 0, x >= 0,
-    ]
-    speed = np.flatnonzero(np.isfinite(x_max))
-    if len(speed):  # x + 2 d u <= x_max at each check
-        rows = _owner_rows(np.ones((len(speed), 1)), own[speed], K)
-        reach = _owner_rows(2.0 * checks.offset[speed, None], own[speed], K)
-        constraints.append(rows @ x + reach @ u <= x_max[speed])
-    lb, ub = (lb / sig[:, None]).ravel(), (ub / sig[:, None]).ravel()
-    constraints.append(tau >= lb)
-    if np.isfinite(ub).any():
-        constraints.append(tau[np.flatnonzero(np.isfinite(ub))] <= ub[np.isfinite(ub)])
-    limited = np.flatnonzero(np.isfinite(a_max))
-    if len(limited):
-        acc = (_owner_rows(checks.accel_u()[:, limited], own, K) @ u
-               + _owner_rows(pts.C[:, limited], own, K) @ x)
-        bound = np.tile(a_max[limited], J)
-        constraints += [acc <= bound, acc >= -bound]
-    duration = cp.sum(cp.multiply(2 * ds, cp.inv_pos(cp.sqrt(x[:-1]) + cp.sqrt(x[1:]))))
-    problem = cp.Problem(cp.Minimize(duration), constraints)
-    try:
-        with quiet_solvers():
-            problem.solve(solver=solver)
-    except cp.error.SolverError:
-        return np.full(K, np.nan), np.full(K, np.nan), "error"
-    # A nearly solved program (Clarabel's AlmostSolved, residuals a few times its
-    # tolerance of 1e-8) is taken: the timing checks its own answer along the path.
-    outcome = {"optimal": "optimal", "optimal_inaccurate": "optimal",
-               "infeasible": "infeasible",
-               "unbounded": "unbounded"}.get(str(problem.status), "error")
-    if outcome != "optimal" or x.value is None:
+    deadline = deadline or Deadline()
+    K = checks.K
+    A, b, (zero, nonneg, socs), nz = timing_cone_program(checks, v_max, a_max, slack)
+    q = np.zeros(nz)
+    q[nz - (K - 1):] = 2.0 * np.diff(checks.grid)
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    if deadline.limited:
+        settings.time_limit = deadline.remaining()
+    cones = [clarabel.ZeroConeT(zero), clarabel.NonnegativeConeT(nonneg)]
+    cones += [clarabel.SecondOrderConeT(3)] * socs
+    deadline.check()
+    with quiet_solvers():
+        solution = clarabel.DefaultSolver(sp.csc_matrix((nz, nz)), q, A, b, cones,
+                                          settings).solve()
+    status = str(solution.status)
+    if status == "MaxTime":
+        raise OutOfTime
+    outcome = {"Solved": "optimal", "AlmostSolved": "optimal",
+               "PrimalInfeasible": "infeasible", "AlmostPrimalInfeasible": "infeasible",
+               "DualInfeasible": "unbounded",
+               "AlmostDualInfeasible": "unbounded"}.get(status, "error")
+    if outcome != "optimal":
         return np.full(K, np.nan), np.full(K, np.nan), outcome
-    u_value = np.array(u.value)
-    u_value[-1] = u_value[-2]  # at rest at the end: the arrival's s''
-    return np.maximum(np.asarray(x.value), 0.0), u_value, outcome
+    z = np.asarray(solution.x)
+    u = z[:K].copy()
+    u[-1] = u[-2]  # at rest at the end: the arrival's s''
+    return np.maximum(z[K:2 * K], 0.0), u, outcome

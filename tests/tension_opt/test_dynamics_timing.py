@@ -218,6 +218,27 @@ def test_scaling_mass_and_bounds_together_leaves_the_timing_unchanged(
                                                    abs=1e-6 * factor * scale)
 
 
+@pytest.mark.parametrize("method", ["convex", "reachability"])
+def test_a_timing_that_runs_out_of_time_says_so(study, method: str) -> None:
+    """``time_limit`` bounds the whole call: on 3000 grid points (a timing of several
+    seconds) a limit of 0.2 s stops it, every point ``max_iter``, no figures of a
+    timing cut short. (The limit went to the tension backend alone, and the call ran
+    to the end.)"""
+    robot, path = study
+    res = dyn.time_optimal(robot, path, gridpoints=3000, method=method, time_limit=0.2)
+    assert res.solve_time < 0.2 + 0.5
+    assert not res.success and (res.status == to.Status.MAX_ITER).all()
+    assert res.duration == np.inf and np.isnan(res.times).all()
+    assert res.extras["stopped"] == "time_limit"
+    # A limit it keeps changes nothing.
+    free = dyn.time_optimal(robot, path, gridpoints=50, method=method)
+    timed = dyn.time_optimal(robot, path, gridpoints=50, method=method, time_limit=60.0)
+    assert timed.success and timed.duration == free.duration
+    for bad in (0.0, -1.0, np.nan, "1"):
+        with pytest.raises(to.InvalidInputError, match="time_limit"):
+            dyn.time_optimal(robot, path, time_limit=bad)
+
+
 def test_limits_bind_and_are_reported(study) -> None:
     robot, path = study
     res = dyn.time_optimal(robot, path, v_max=2.0, a_max=1.0)
