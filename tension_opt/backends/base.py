@@ -38,10 +38,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tension_opt.backends.feasibility import settle_failures
-from tension_opt.backends.settings import unreachable
+from tension_opt.backends.settings import objective_scales, time_limit_message, unreachable
 from tension_opt.backends.tiebreak import face_min_norm, lp_optimum_is_unique, optimal_face
 from tension_opt.certify.certificate import Certificate, Multipliers, certify
-from tension_opt.certify.scaling import scaled_batch
+from tension_opt.certify.scaling import ScaledBatch, scaled_batch
 from tension_opt.errors import SolverError
 from tension_opt.problem.form import StandardForm
 from tension_opt.status import STATUS_DTYPE, Status, status_array
@@ -362,6 +362,29 @@ def note_error(extras: dict[str, Any], pose: int, error: BaseException) -> None:
     errors = extras.setdefault("errors", {})
     if len(errors) < MAX_ERRORS:
         errors[pose] = describe(error)
+
+
+def note_time_limit(extras: dict[str, Any], pose: int, limit: float | None,
+                    status: str) -> Status:
+    """The status of a pose whose solver call ran out of its time ``limit`` without an
+    answer, ``MAX_ITER`` (an inaccurate answer or a verdict keeps its own), its message
+    put in ``extras["errors"]``."""
+    errors = extras.setdefault("errors", {})
+    if len(errors) < MAX_ERRORS:
+        errors[pose] = time_limit_message(limit)
+    if status in (Status.SOLVER_ERROR, Status.NOT_RUN):
+        return Status.MAX_ITER
+    return Status(status)
+
+
+def objective_powers(solver: str, form: StandardForm, batch: ScaledBatch) -> NDArray | None:
+    """Per pose, the power of two by which ``solver`` is asked to scale the objective of
+    the scaled ``batch`` of ``form`` (:func:`~tension_opt.backends.settings.objective_scales`:
+    the reference tension over the typical tension), or None."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        ratio = batch.scale / form.typical_tension()
+    quadratic = batch.P.max(axis=1, initial=0.0) > 0
+    return objective_scales(solver, ratio, quadratic)
 
 
 def pose_loop_result(N: int, m: int) -> tuple[NDArray, NDArray, NDArray]:

@@ -23,10 +23,12 @@ from tension_opt.backends.base import (
     Backend,
     RawResult,
     note_error,
+    note_time_limit,
+    objective_powers,
     pose_loop_result,
     quiet_solvers,
 )
-from tension_opt.backends.settings import solver_options
+from tension_opt.backends.settings import solver_options, time_limit_of, with_objective_scale
 from tension_opt.certify.certificate import Multipliers, certify
 from tension_opt.certify.scaling import ScaledBatch, scaled_batch
 from tension_opt.errors import BackendNotAvailableError
@@ -263,12 +265,13 @@ class CvxpyBackend(Backend):
         batch = scaled_batch(form)
         target = accuracy_target(options.get("accuracy"))
         extra = 0 if form.G is None else form.G.shape[1]
-        settings = [solver_options(self._solver, accuracy, options.get("time_limit"),
-                                   options.get("solver_options"), interface="cvxpy")
+        limit, user = time_limit_of(options), options.get("solver_options")
+        settings = [solver_options(self._solver, accuracy, limit, user, interface="cvxpy")
                     for accuracy in (target, JOINT_SHARE * target, TIGHT_JOINT_SHARE * target)]
         call = _Call(batch, extra, np.isfinite(batch.lb[:, :batch.m]),
                      np.isfinite(batch.ub[:, :batch.m]), bool(options.get("warm_start", False)),
-                     settings[0], target, settings[1:])
+                     settings[0], target, settings[1:], limit,
+                     objective_powers(self._solver, form, batch), user)
         # Joint stopping criteria loosen per-pose accuracy: tight targets go pose by pose.
         default_k = 1 if target < DEFAULT_TARGET else 16
         K = max(1, min(int(options.get("batch_size") or default_k), form.N))
@@ -298,6 +301,7 @@ class CvxpyBackend(Backend):
             if K > 1:
                 compiled, dt = self._compiled(call, call.lb_fin[rows], call.ub_fin[rows])
                 compile_time += dt
+                noted = extras.pop("errors", None)  # the poses of earlier chunks
                 st, count, x = self._run(compiled, call, rows, extras, joint)
                 if st == Status.OPTIMAL and x is not None:
                     real = rows[: min(K, N - start)]
@@ -312,6 +316,8 @@ class CvxpyBackend(Backend):
                     if again:  # the poses of this call need more of a joint solve
                         joint = call.joint_settings[1]
                 extras.pop("errors", None)  # the poses say for themselves below
+                if noted:
+                    extras["errors"] = noted
             for i in again:
                 one = np.array([i])
                 compiled, dt = self._compiled(call, call.lb_fin[one], call.ub_fin[one])
@@ -337,15 +343,32 @@ class CvxpyBackend(Backend):
 
     def _run(self, compiled: _Compiled, call: _Call, rows: NDArray, extras: dict[str, Any],
              settings: dict[str, Any]) -> tuple[Status, int | None, NDArray | None]:
+        """One cvxpy solve of the poses ``rows``; stopped by the time limit without an
+        answer, ``MAX_ITER`` with a message for the first of them."""
+        if call.powers is not None:  # the objective of these poses, scaled for the solver
+            power = int(np.rint(call.powers[rows].mean()))
+            settings = with_objective_scale(self._solver, settings, power, call.user)
+        start = time.perf_counter()
         try:
             compiled.load(call, rows)
             compiled.problem.solve(solver=self._solver, warm_start=call.warm, **settings)
         except Exception as error:  # a solver's failure on these poses
             note_error(extras, int(rows[0]), error)
-            return Status.SOLVER_ERROR, None, None
+            return self._timed(call, start, extras, rows, Status.SOLVER_ERROR), None, None
         stats = compiled.problem.solver_stats
-        return (_STATUS.get(compiled.problem.status, Status.SOLVER_ERROR),
-                None if stats is None else stats.num_iters, compiled.x.value)
+        status = self._timed(call, start, extras, rows,
+                             _STATUS.get(compiled.problem.status, Status.SOLVER_ERROR))
+        return status, None if stats is None else stats.num_iters, compiled.x.value
+
+    @staticmethod
+    def _timed(call: _Call, start: float, extras: dict[str, Any], rows: NDArray,
+               status: Status) -> Status:
+        """``status`` of a solve begun at ``start``, told apart if it ran out of time."""
+        if (call.limit is None or status in (Status.OPTIMAL, Status.INFEASIBLE)
+                or time.perf_counter() - start < call.limit):
+            return status
+        extras.get("errors", {}).pop(int(rows[0]), None)  # the time limit, not its echo
+        return note_time_limit(extras, int(rows[0]), call.limit, status)
 
 
 @dataclass(frozen=True)
@@ -364,6 +387,13 @@ class _Call:
     #: Options of a joint solve of several poses: at :data:`JOINT_SHARE` of the target,
     #: then at :data:`TIGHT_JOINT_SHARE`.
     joint_settings: list[dict[str, Any]]
+    #: Seconds per solve (None: no limit).
+    limit: float | None = None
+    #: Per pose, the power of two the solver scales the objective by
+    #: (:func:`~tension_opt.backends.settings.objective_scales`), None for none.
+    powers: NDArray | None = None
+    #: The caller's own solver options.
+    user: Mapping[str, Any] | None = None
 
 
 def available() -> list[str]:

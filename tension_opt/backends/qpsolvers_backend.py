@@ -20,10 +20,12 @@ from tension_opt.backends.base import (
     RawResult,
     SequenceRun,
     note_error,
+    note_time_limit,
+    objective_powers,
     pose_loop_result,
     quiet_solvers,
 )
-from tension_opt.backends.settings import solver_options
+from tension_opt.backends.settings import solver_options, time_limit_of, with_objective_scale
 from tension_opt.certify.certificate import Multipliers
 from tension_opt.certify.scaling import ScaledBatch, scaled_batch
 from tension_opt.errors import BackendNotAvailableError
@@ -154,14 +156,17 @@ class QpsolversBackend(Backend):
     def solve_stage(self, form: StandardForm, **options: Any) -> RawResult:
         t0 = time.perf_counter()
         batch = scaled_batch(form)
-        settings = solver_options(self._solver, options.get("accuracy"),
-                                  options.get("time_limit"), options.get("solver_options"))
+        limit, user = time_limit_of(options), options.get("solver_options")
+        settings = solver_options(self._solver, options.get("accuracy"), limit, user)
         warm = bool(options.get("warm_start", False))
         setup = time.perf_counter() - t0
         with quiet_solvers():
             if self._solver == "daqp":
                 return self._solve_daqp(batch, settings, warm, setup)
-            return self._solve_generic(batch, settings, warm, setup)
+            powers = objective_powers(self._solver, form, batch)
+            per_pose = None if powers is None else [
+                with_objective_scale(self._solver, settings, int(p), user) for p in powers]
+            return self._solve_generic(batch, settings, warm, setup, limit, per_pose)
 
     def runs_sequences(self, options: Mapping[str, Any], smoothed: StandardForm) -> bool:
         """The smoothed poses of a sequence run in one loop: through DAQP's C solver
@@ -193,7 +198,7 @@ class QpsolversBackend(Backend):
 
         self.check_solver_options(options)
         settings = solver_options(self._solver, options.get("accuracy"),
-                                  options.get("time_limit"), options.get("solver_options"))
+                                  time_limit_of(options), options.get("solver_options"))
         target = accuracy_target(options.get("accuracy"))
         tol = max(FEASIBILITY_TOL, 10.0 * target)
         N, m, n = base.N, base.m, base.n
@@ -288,7 +293,10 @@ class QpsolversBackend(Backend):
         return N
 
     def _solve_generic(self, batch: ScaledBatch, settings: dict[str, Any], warm: bool,
-                       setup: float) -> RawResult:
+                       setup: float, limit: float | None = None,
+                       per_pose: list[dict[str, Any]] | None = None) -> RawResult:
+        """Pose by pose through qpsolvers, with ``settings`` (or each pose's own,
+        ``per_pose``); a pose left unsolved after ``limit`` seconds reads ``MAX_ITER``."""
         N, k = batch.N, batch.k
         x_all, status, iters = pose_loop_result(N, k)
         duals = Multipliers.unknown(batch)
@@ -310,13 +318,16 @@ class QpsolversBackend(Backend):
                                         h[i] if rows else None, Aeq[i], beq[i],
                                         lb[i] if has_lb[i] else None,
                                         ub[i] if has_ub[i] else None)
+            start = time.perf_counter()
             try:
                 sol = qpsolvers.solve_problem(problem, solver=self._solver,
-                                              initvals=x_prev if warm else None, **settings)
+                                              initvals=x_prev if warm else None,
+                                              **(settings if per_pose is None else per_pose[i]))
             except Exception as error:  # a solver's failure on one pose
                 status[i] = Status.SOLVER_ERROR
                 note_error(extras, i, error)
                 continue
+            spent = time.perf_counter() - start
             count = iterations_of(sol.extras or {})
             has_iters &= count is not None
             iters[i] = count or 0
@@ -331,6 +342,8 @@ class QpsolversBackend(Backend):
                         x_all[i] = sol.x
                     else:
                         status[i] = Status.SOLVER_ERROR
+                if limit is not None and spent >= limit:  # HiGHS says nothing of it
+                    status[i] = note_time_limit(extras, i, limit, status[i])
         status[found] = Status.OPTIMAL
         elapsed = time.perf_counter() - t0
         return RawResult(batch.tensions(x_all), status, iters if has_iters else None, setup,

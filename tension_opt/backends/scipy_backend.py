@@ -13,8 +13,8 @@ import numpy as np
 import scipy
 from scipy.optimize import linprog
 
-from tension_opt.backends.base import Backend, RawResult, note_error, pose_loop_result
-from tension_opt.backends.settings import solver_options
+from tension_opt.backends.base import MAX_ERRORS, Backend, RawResult, note_error, pose_loop_result
+from tension_opt.backends.settings import solver_options, time_limit_of
 from tension_opt.certify.certificate import Multipliers
 from tension_opt.certify.scaling import scaled_batch
 from tension_opt.errors import BackendNotAvailableError
@@ -50,7 +50,7 @@ class ScipyHighsBackend(Backend):
     def solve_stage(self, form: StandardForm, **options: Any) -> RawResult:
         t0 = time.perf_counter()
         batch = scaled_batch(form)
-        settings = solver_options("highs", options.get("accuracy"), options.get("time_limit"),
+        settings = solver_options("highs", options.get("accuracy"), time_limit_of(options),
                                   options.get("solver_options"), interface="scipy")
         N, k = batch.N, batch.k
         x_all, status, iters = pose_loop_result(N, k)
@@ -73,6 +73,10 @@ class ScipyHighsBackend(Backend):
                 continue
             status[i] = _LINPROG_STATUS.get(res.status, Status.SOLVER_ERROR)
             iters[i] = int(getattr(res, "nit", 0) or 0)
+            if res.status == 1:  # an iteration or the time limit: linprog says which
+                errors = extras.setdefault("errors", {})
+                if len(errors) < MAX_ERRORS:
+                    errors[i] = f"HiGHS stopped: {res.message}"
             if res.status == 0:
                 x_all[i] = res.x
                 _keep_duals(duals, i, res, G is not None)

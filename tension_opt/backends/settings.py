@@ -11,8 +11,14 @@ there (iteration caps, polishing). A solver whose :attr:`SolverSettings.floor` i
 the target is run at its floor and reports so (:func:`unreachable`); every answer is
 judged by its certificate anyway, so a target a solver misses shows as ``inaccurate``.
 
-A time limit (s) goes to the solvers that take one. Every backend translates through
-:func:`solver_options`, so a solver's option names are written here once. The table is
+A time limit (s) goes to the solvers that take one (OSQP, Clarabel, HiGHS, SCS), per
+solver call (a pose, or a joint cvxpy solve of ``batch_size`` poses): the call's
+``time_limit``, :data:`DEFAULT_TIME_LIMIT` (10 s) when it gives none, no limit only for
+``time_limit=None`` given by name (:func:`time_limit_of`). A call stopped by it reads
+``max_iter``, with a message in ``extras["errors"]``. The other solvers stop on their
+own iteration caps (DAQP 10000 iterations, ProxQP 1000, PIQP, ECOS and quadprog their
+defaults). Every backend translates through :func:`solver_options`, so a solver's
+option names are written here once. The table is
 keyed by the solver's lower-case name, whichever interface calls it (qpsolvers, cvxpy
 or scipy); :data:`CVXPY_NAMES` renames the few options cvxpy spells differently and
 :data:`CVXPY_DROPS` lists those its interface does not pass on.
@@ -26,19 +32,23 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tension_opt.errors import InvalidInputError
 from tension_opt.tolerances import ACCURACY_TARGETS, DEFAULT_TARGET, accuracy_target
 
-__all__ = ["ACCURACIES", "CVXPY_DROPS", "CVXPY_NAMES", "DEFAULT_TARGET", "OPTIONS",
-           "SETTINGS", "SolverSettings", "accuracy_target", "check_accuracy",
-           "check_options", "solver_options", "unreachable"]
+__all__ = ["ACCURACIES", "CVXPY_DROPS", "CVXPY_NAMES", "DEFAULT_TARGET", "DEFAULT_TIME_LIMIT",
+           "OPTIONS", "SETTINGS", "SolverSettings", "accuracy_target", "check_accuracy",
+           "check_options", "objective_scales", "solver_options", "time_limit_message",
+           "time_limit_of", "unreachable", "with_objective_scale"]
 
 #: Accuracy names every backend accepts (a number between 1e-14 and 1e-2 is accepted too).
 ACCURACIES: tuple[str, ...] = tuple(ACCURACY_TARGETS)
 #: Keyword options every backend accepts (a backend ignores those it has no use for).
 OPTIONS: tuple[str, ...] = ("accuracy", "time_limit", "solver_options", "warm_start",
                             "batch_size")
+#: Seconds one solver call may run when the call gives no ``time_limit``.
+DEFAULT_TIME_LIMIT = 10.0
 
 
 @dataclass(frozen=True)
@@ -61,6 +71,9 @@ class SolverSettings:
         runs at its floor.
     time_limit : str, optional
         Name of the solver's time-limit option (s), if it has one.
+    objective_scale : str, optional
+        Name of the solver's option that scales the objective by a power of two
+        (:func:`objective_scales`), if it needs one.
     nest : str, optional
         Name of a single option that holds the others as a dict (cvxpy's SCIPY).
     defaults : dict
@@ -74,6 +87,7 @@ class SolverSettings:
     always: dict[str, Any] = field(default_factory=dict)
     floor: float = 1e-14
     time_limit: str | None = None
+    objective_scale: str | None = None
     nest: str | None = None
     defaults: dict[str, Any] = field(default_factory=dict)
 
@@ -92,6 +106,11 @@ class SolverSettings:
                    if name not in self.defaults or self.defaults[name] != value}
         return {self.nest: options} if self.nest and options else options
 
+
+#: Largest power of two an objective is scaled by (a reference 1e6 times the typical
+#: tension). HiGHS's QP solver fails on the study robot from t_max = 1e11 N whatever the
+#: power; from 2^50 it turned the inaccurate answers it gave at 1e15 N into errors.
+_MAX_OBJECTIVE_POWER = 40
 
 #: HiGHS's own feasibility tolerances (its documentation's defaults).
 _HIGHS_DEFAULTS = {"primal_feasibility_tolerance": 1e-7, "dual_feasibility_tolerance": 1e-7}
@@ -117,9 +136,11 @@ SETTINGS: dict[str, SolverSettings] = {
     "clarabel": SolverSettings({"tol_gap_abs": 0.1, "tol_gap_rel": 0.1, "tol_feas": 0.1,
                                 "tol_ktratio": 0.1}, floor=1e-12, time_limit="time_limit"),
     # HiGHS refuses feasibility tolerances below 1e-10; its simplex lands on vertices.
+    # Its QP solver stalls on objectives far below one (:func:`objective_scales`).
     "highs": SolverSettings({"primal_feasibility_tolerance": 1.0,
                              "dual_feasibility_tolerance": 1.0}, floor=1e-10,
-                            time_limit="time_limit", defaults=_HIGHS_DEFAULTS),
+                            time_limit="time_limit", objective_scale="user_objective_scale",
+                            defaults=_HIGHS_DEFAULTS),
     "scs": SolverSettings({"eps_abs": 0.1, "eps_rel": 0.1}, {"max_iters": 100000},
                           floor=1e-10, time_limit="time_limit_secs"),
     "ecos": SolverSettings({"abstol": 0.1, "reltol": 0.1, "feastol": 0.1}, floor=1e-12),
@@ -136,6 +157,68 @@ CVXPY_DROPS: dict[str, frozenset[str]] = {
     "proxqp": frozenset({"check_duality_gap", "eps_duality_gap_abs"}),
     "osqp": frozenset({"polish_refine_iter"}),
 }
+
+
+def time_limit_of(options: Mapping[str, Any]) -> float | None:
+    """The time limit (s) of each solver call of a call with these backend options: its
+    ``time_limit``, :data:`DEFAULT_TIME_LIMIT` if it has none, None (no limit) only
+    where it says ``time_limit=None``."""
+    return options["time_limit"] if "time_limit" in options else DEFAULT_TIME_LIMIT
+
+
+def time_limit_message(limit: float | None) -> str:
+    """The message of a pose whose solver call was stopped by the time limit."""
+    return (f"the solver was stopped at the time limit of {limit:g} s per call "
+            "(time_limit=...; None for no limit)")
+
+
+def objective_scales(solver: str, ratio: NDArray, quadratic: NDArray) -> NDArray | None:
+    """Per pose, the power of two by which ``solver`` scales the objective, or None.
+
+    The scaled problem's tensions are over a reference floored at ``UB_SHARE`` of the
+    largest finite upper bound (:mod:`tension_opt.certify.scaling`): with a bound far
+    above the load its tensions are ``1 / ratio`` (``ratio`` = reference over typical
+    tension) and its objective about ``ratio^-2`` (QP). The study robot at
+    ``t_max = 1e10`` N has a reference of 1e7 N, tensions of 5e-4 and a min-norm
+    objective of 1e-7, on which HiGHS's QP solver, whose thresholds on a step's
+    improvement are absolute, stalled for over 400 s (3 of 40 pond poses); asked to
+    scale the objective by ``2^22`` (its ``user_objective_scale``, undone on the
+    answer and its multipliers) it solves them in milliseconds. The exponent is
+    ``round(log2(ratio^2))`` for a QP, 0 for an LP (HiGHS's simplex does not stall on
+    them) and wherever the reference is the typical tension itself: there nothing is
+    passed and every answer is as before.
+
+    Parameters
+    ----------
+    solver : str
+        Solver name, any case.
+    ratio : ndarray, shape (N,)
+        Reference tension over typical tension per pose (>= 1; NaN or inf counts as 1).
+    quadratic : ndarray of bool, shape (N,)
+        Whether the pose's objective has a quadratic term.
+
+    Returns
+    -------
+    ndarray of int, shape (N,), or None
+        None where the solver has no such option or no pose needs it.
+    """
+    if SETTINGS.get(solver.lower(), SolverSettings()).objective_scale is None:
+        return None
+    with np.errstate(divide="ignore", invalid="ignore"):
+        power = np.where(np.isfinite(ratio) & (ratio > 1.0) & quadratic,
+                         np.rint(2.0 * np.log2(np.where(ratio > 1.0, ratio, 1.0))), 0.0)
+    exponents = np.clip(power, 0, _MAX_OBJECTIVE_POWER).astype(np.int64)
+    return exponents if exponents.any() else None
+
+
+def with_objective_scale(solver: str, settings: dict[str, Any], exponent: int,
+                         user: Mapping[str, Any] | None) -> dict[str, Any]:
+    """``settings`` of one call with the objective scaled by ``2^exponent``
+    (:func:`objective_scales`); the user's own value of that option wins."""
+    name = SETTINGS.get(solver.lower(), SolverSettings()).objective_scale
+    if name is None or exponent == 0 or (user is not None and name in user):
+        return settings
+    return {**settings, name: int(exponent)}
 
 
 def unreachable(solver: str, accuracy: object) -> str | None:

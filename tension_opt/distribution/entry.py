@@ -91,11 +91,11 @@ def distribute(
         take this call's results (no page faults of fresh memory: 10^6 study poses in
         about 0.7x the time). Not for calls running at the same time.
     **options
-        ``accuracy`` (``"default"``, ``"high"`` or a number: the certificate's target,
-        the closed form's too), ``time_limit`` (s per solver call: a pose, or cvxpy's
-        ``batch_size`` poses), ``solver_options`` (the solver's own names), ``warm_start``,
+        ``accuracy`` (``"default"``, ``"high"`` or a number: the certificate's target, the
+        closed form's too), ``time_limit`` (s per solver call, a pose or cvxpy's ``batch_size``
+        poses: 10 s unless given, None for none; a pose it stops reads ``max_iter``),
+        ``solver_options`` (the solver's own names), ``warm_start`` (not across chunks),
         ``batch_size`` (:mod:`tension_opt.backends.settings`); anything else is an error.
-        A warm start does not cross from one chunk to the next.
 
     Returns
     -------
