@@ -21,31 +21,22 @@ from numpy.typing import NDArray
 from tension_opt.dynamics.deadline import Deadline
 from tension_opt.dynamics.intervals import StageChecks
 from tension_opt.dynamics.lp import solve_lp
-from tension_opt.problem.form import typical_tension
-from tension_opt.tolerances import UB_SHARE
+from tension_opt.dynamics.point_rows import tension_gap, tension_scale
 
 __all__ = ["StageLP", "check_limits"]
 
 
 def check_limits(checks: StageChecks, v_max: NDArray, slack: float
                  ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-    """The checks' tension scale ``sigma`` (J,), the tension bounds kept ``slack`` times
-    it inside the bounds (J, m) each, and ``x_max`` (J,): the largest ``x + 2 d u`` the
-    velocity limits leave at each check (inf: none).
-
-    ``sigma`` is the problem's own: the typical tension of the static wrench
-    (:func:`~tension_opt.problem.form.typical_tension`), floored by
-    :data:`~tension_opt.tolerances.UB_SHARE` of the largest finite upper bound (the
-    reference tension of a tension solve), so that a robot's mass and bounds scaled
-    together leave the timing as it is.
-    """
+    """The checks' tension scale ``sigma`` (J,)
+    (:func:`~tension_opt.dynamics.point_rows.tension_scale`), the tension bounds kept
+    ``slack`` times it inside the bounds (J, m) each, and ``x_max`` (J,): the largest
+    ``x + 2 d u`` the velocity limits leave at each check (inf: none)."""
     pts = checks.points
-    top = np.where(np.isfinite(pts.ub), pts.ub, 0.0).max(axis=1, initial=0.0)
-    sigma = np.maximum(typical_tension(pts.A, pts.c, pts.lb), UB_SHARE * top)
-    gap = np.minimum(slack * sigma[:, None], 0.5 * (pts.ub - pts.lb))
+    gap = tension_gap(pts, slack)
     with np.errstate(divide="ignore"):
         x_max = np.min((v_max / np.abs(pts.V)) ** 2, axis=1)
-    return sigma, pts.lb + gap, pts.ub - gap, x_max
+    return tension_scale(pts), pts.lb + gap, pts.ub - gap, x_max
 
 
 class StageLP:

@@ -12,20 +12,25 @@ A timing moves with a constant ``u_k`` from grid point ``s_k`` to the next, so
 along the whole interval, not only at the grid points
 (:mod:`tension_opt.dynamics.intervals`): each ``(u_k, x_k)`` is constrained at its
 grid point, at the end of its interval (with the path's values there: TOPP-RA's
-interpolation scheme), at the spline's knots inside it, and, round by round, at the
-points inside where a dense check found the wrench outside the feasible set or a
+interpolation scheme), at the spline's knots inside it, and, round by round
+(:mod:`tension_opt.dynamics.timing_rounds`), at the points inside where a dense check
+(:mod:`tension_opt.dynamics.between`) found the wrench outside the feasible set or a
 motion limit exceeded. Two solvers:
 
 ``"reachability"``
     TOPP-RA (Pham & Pham 2018): a backward pass of linear programs gives the
     controllable set ``[K_lo, K_hi]`` of ``x`` at every grid point; a forward pass takes
-    the largest ``u`` that stays controllable (:mod:`tension_opt.dynamics.reachability`,
-    HiGHS, the tensions scaled by a typical tension per point).
+    the largest ``u`` that stays controllable (:mod:`tension_opt.dynamics.reachability`):
+    compiled two-variable LPs over the facet rows of the wrench-feasible sets
+    (:mod:`tension_opt.dynamics.stage_rows`, :mod:`tension_opt.kernels.reachability`),
+    or, where the facets do not describe the robot (too many, or a structure matrix of
+    lower rank), LPs over the tensions by HiGHS.
 ``"convex"`` (default)
     The convex program of Verscheure et al. (2009): minimise the traversal time
-    ``sum 2 ds_k / (sqrt(x_k) + sqrt(x_{k+1}))`` over ``(u, x, T)`` of every point at
-    once (cvxpy, Clarabel) (:mod:`tension_opt.dynamics.timing_convex`), its answer
-    made exact by the reachability passes capped by it
+    ``sum 2 ds_k / (sqrt(x_k) + sqrt(x_{k+1}))`` over every point at once, by Clarabel
+    (:mod:`tension_opt.dynamics.timing_convex`): over the facet rows with cutting planes
+    after the reachability method's rounds, or over the tensions; its answer made
+    exact by the reachability passes capped by it
     (:func:`~tension_opt.dynamics.reachability.polish`).
 
 The convex program finds the global optimum of the discretised problem. The greedy
@@ -50,18 +55,13 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt.backends.registry import choose_backend
 from tension_opt.checks import as_float_array, is_number
 from tension_opt.distribution.solution import solution_of
+from tension_opt.dynamics.between import Between
 from tension_opt.dynamics.deadline import Deadline, OutOfTime
-from tension_opt.dynamics.intervals import (
-    Between,
-    PathModel,
-    StageChecks,
-    between_check,
-    initial_checks,
-)
+from tension_opt.dynamics.intervals import PathModel, StageChecks, initial_checks
 from tension_opt.dynamics.path import PathSpline, PathStages
-from tension_opt.dynamics.reachability import failed_points, polish, reachability
+from tension_opt.dynamics.reachability import failed_points
 from tension_opt.dynamics.timed import TimedTrajectory
-from tension_opt.dynamics.timing_convex import convex_timing
+from tension_opt.dynamics.timing_rounds import refine
 from tension_opt.errors import InvalidInputError
 from tension_opt.problem.form import Objective, TensionProblem, as_problem, typical_tension
 from tension_opt.robot import CableRobot
@@ -70,8 +70,6 @@ from tension_opt.workspace.margin import margin_solve
 
 __all__ = ["STOP_TOL", "TimingResult", "motion_limits", "time_optimal"]
 
-#: Rounds of checks added between grid points (:mod:`tension_opt.dynamics.intervals`).
-BETWEEN_ROUNDS = 8
 #: ``s'^2`` at or below this share of its largest value along the path counts as zero.
 STOP_TOL = 1e-9
 
@@ -218,23 +216,6 @@ class TimingResult:
         return frame
 
 
-def _solve(run: _Run, checks: StageChecks
-           ) -> tuple[NDArray, NDArray, NDArray, str, int | None, int, str]:
-    """Run the method: ``x, u``, controllable sets, outcome, failing point, LP count and
-    the method that gave the answer."""
-    limits = (run.vmax, run.amax, run.slack)
-    if run.method == "convex":
-        x, u, outcome = convex_timing(checks, *limits, deadline=run.deadline)
-        if outcome == "optimal":
-            x, u, sets, outcome, count = polish(checks, x, *limits, run.deadline)
-            if outcome == "optimal":
-                return x, u, sets, outcome, None, count, run.method
-    # Also what tells an unbounded or infeasible path from a convex solver's failure.
-    x, u, sets, outcome, fail, count = reachability(checks, *limits, run.deadline)
-    return x, u, sets, outcome, fail, count, (
-        "reachability" if run.method == "reachability" else "convex+reachability")
-
-
 def _tensions(robot: CableRobot, stages: PathStages, W: NDArray,
               problem: TensionProblem, custom_bounds: bool, backend: Any,
               options: dict[str, Any]) -> tuple[NDArray, NDArray]:
@@ -316,10 +297,10 @@ def time_optimal(
         ``times``, ``duration``, motion, ``tensions``, per-point ``status``, the margin
         at and between the grid points and the active limits. A motion still outside
         the feasible wrenches (margin below ``-FEASIBILITY_TOL`` times the typical
-        tension) or a motion limit between grid points after :data:`BETWEEN_ROUNDS`
-        rounds of checks is ``INACCURATE`` there, its figures kept. A path that cannot
-        be timed (a point the robot cannot hold, no way from rest to rest, a timing
-        that stops the path: ``STALLED``) has ``duration = inf``; nothing is raised.
+        tension) or a motion limit between grid points after the rounds of checks
+        (``timing_rounds.BETWEEN_ROUNDS``) is ``INACCURATE`` there, its figures kept. A
+        path that cannot be timed (a point the robot cannot hold, no way from rest to
+        rest, a timing that stops the path: ``STALLED``) has ``duration = inf``.
 
     Raises
     ------
@@ -343,31 +324,25 @@ def _limits(robot: CableRobot, v_max: float | ArrayLike | None,
 
 
 def _rounds(run: _Run, checks: StageChecks) -> TimingResult:
-    """Solve, check between the grid points, add the checks that failed, and again: up
-    to :data:`BETWEEN_ROUNDS` times; no timing, every point ``MAX_ITER``, where the time
-    limit passes first."""
-    count, used = 0, run.method
+    """The rounds of the timing (:func:`~tension_opt.dynamics.timing_rounds.refine`) and
+    its result; no timing, every point ``MAX_ITER``, where the time limit passes
+    first."""
     run.extras["stages"] = run.model.stages
+    K = run.model.stages.K
     try:
-        for rounds in range(BETWEEN_ROUNDS + 1):
-            x, u, sets, outcome, fail, lps, used = _solve(run, checks)
-            count += lps
-            if fail is not None:
-                run.extras["checks"] = checks
-                status = failed_points(checks, run.vmax, run.amax, outcome, run.deadline)
-                return _no_timing(run, status, sets, used, count)
-            between = between_check(run.model, x, u, run.vmax, run.amax,
-                                    deadline=run.deadline)
-            if not between.bad.any() or rounds == BETWEEN_ROUNDS:
-                break
-            checks = checks.with_points(run.model, between.owner, between.at)
+        r = refine(run.model, checks, run.vmax, run.amax, run.slack, run.method,
+                   run.deadline)
+        run.extras["checks"] = r.checks
+        if r.fail is not None or r.between is None:
+            status = failed_points(r.checks, run.vmax, run.amax, r.outcome, run.deadline,
+                                   r.compiled)
+            return _no_timing(run, status, r.sets, r.method, r.count)
     except OutOfTime:
-        run.extras.update(checks=checks, stopped="time_limit")
-        K = run.model.stages.K
+        run.extras.setdefault("checks", checks)
+        run.extras["stopped"] = "time_limit"
         return _no_timing(run, status_array(K, Status.MAX_ITER), np.full((K, 2), np.nan),
-                          used, count)
-    run.extras["checks"] = checks
-    return _timed(run, x, u, sets, between, used, count)
+                          run.method, 0)
+    return _timed(run, r.x, r.u, r.sets, r.between, r.method, r.count)
 
 
 @dataclass(frozen=True, eq=False)

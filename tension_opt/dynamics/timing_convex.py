@@ -28,8 +28,15 @@ from tension_opt.backends.base import quiet_solvers
 from tension_opt.dynamics.deadline import Deadline, OutOfTime
 from tension_opt.dynamics.intervals import StageChecks
 from tension_opt.dynamics.stage_lp import check_limits
+from tension_opt.dynamics.stage_rows import StageRows
 
-__all__ = ["convex_timing", "timing_cone_program"]
+__all__ = ["ACTIVE_ROOM", "CUTS", "convex_rows_timing", "convex_timing", "timing_cone_program"]
+
+#: Rows of the cutting-plane program first taken: within this of binding at the
+#: reference timing, relative to ``1 + |b|`` (unit rows, :func:`convex_rows_timing`).
+ACTIVE_ROOM = 1e-2
+#: Most programs :func:`convex_rows_timing` solves.
+CUTS = 12
 
 
 class _Rows:
@@ -139,23 +146,50 @@ def timing_cone_program(checks: StageChecks, v_max: NDArray, a_max: NDArray, sla
     ir = itau + J * m
     it = ir + K
     nz = it + K - 1
-    blocks = [_equalities(checks, limits[0], iu, ix, itau),
-              _inequalities(checks, limits, a_max, (iu, ix, itau, ir)), _cones(K, ix, ir, it)]
-    rows, cols, vals, rhs, offset = [], [], [], [], 0
-    for block in blocks:
-        rows += [r + offset for r in block.r]
-        cols += block.c
-        vals += block.v
-        rhs += block.b
-        offset += block.count
-    A = sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                      shape=(offset, nz))
-    return A, np.concatenate(rhs), [blocks[0].count, blocks[1].count, 2 * K - 1], nz
+    A, b, counts = _stack([_equalities(checks, limits[0], iu, ix, itau),
+                           _inequalities(checks, limits, a_max, (iu, ix, itau, ir)),
+                           _cones(K, ix, ir, it)], nz)
+    return A, b, [counts[0], counts[1], 2 * K - 1], nz
+
+
+def _solve_cones(A: sp.csc_matrix, b: NDArray, sizes: list[int], grid: NDArray,
+                 deadline: Deadline) -> tuple[NDArray, NDArray, str]:
+    """Clarabel on the data of a timing program whose variables start ``(u, x)`` and end
+    with the ``K - 1`` epigraph variables ``t``: ``x, u`` and an outcome."""
+    import clarabel
+
+    K = grid.size
+    nz = A.shape[1]
+    q = np.zeros(nz)
+    q[nz - (K - 1):] = 2.0 * np.diff(grid)
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    if deadline.limited:
+        settings.time_limit = deadline.remaining()
+    cones = [clarabel.ZeroConeT(sizes[0]), clarabel.NonnegativeConeT(sizes[1])]
+    cones += [clarabel.SecondOrderConeT(3)] * sizes[2]
+    deadline.check()
+    with quiet_solvers():
+        solution = clarabel.DefaultSolver(sp.csc_matrix((nz, nz)), q, A, b, cones,
+                                          settings).solve()
+    status = str(solution.status)
+    if status == "MaxTime":
+        raise OutOfTime
+    outcome = {"Solved": "optimal", "AlmostSolved": "optimal",
+               "PrimalInfeasible": "infeasible", "AlmostPrimalInfeasible": "infeasible",
+               "DualInfeasible": "unbounded",
+               "AlmostDualInfeasible": "unbounded"}.get(status, "error")
+    if outcome != "optimal":
+        return np.full(K, np.nan), np.full(K, np.nan), outcome
+    z = np.asarray(solution.x)
+    u = z[:K].copy()
+    u[-1] = u[-2]  # at rest at the end: the arrival's s''
+    return np.maximum(z[K:2 * K], 0.0), u, outcome
 
 
 def convex_timing(checks: StageChecks, v_max: NDArray, a_max: NDArray, slack: float = 0.0,
                   deadline: Deadline | None = None) -> tuple[NDArray, NDArray, str]:
-    """Solve the convex timing program of ``checks`` with Clarabel.
+    """Solve the convex timing program of ``checks`` with Clarabel, over the tensions.
 
     Parameters
     ----------
@@ -178,33 +212,70 @@ def convex_timing(checks: StageChecks, v_max: NDArray, a_max: NDArray, slack: fl
         tolerance of 1e-8): the timing makes the answer exact and checks it along the
         path.
     """
-    import clarabel
+    A, b, sizes, _ = timing_cone_program(checks, v_max, a_max, slack)
+    return _solve_cones(A, b, sizes, checks.grid, deadline or Deadline())
 
+
+def _stack(blocks: list[_Rows], nz: int) -> tuple[sp.csc_matrix, NDArray, list[int]]:
+    """The blocks' rows one after the other: ``A``, ``b`` and each block's row count."""
+    rows, cols, vals, rhs, offset = [], [], [], [], 0
+    for block in blocks:
+        rows += [r + offset for r in block.r]
+        cols += block.c
+        vals += block.v
+        rhs += block.b
+        offset += block.count
+    A = sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(offset, nz))
+    return A, np.concatenate(rhs), [block.count for block in blocks]
+
+
+def _rows_program(rows: StageRows, active: NDArray, grid: NDArray
+                  ) -> tuple[sp.csc_matrix, NDArray, list[int]]:
+    """The timing program over ``(u, x, r, t)`` with the rows ``active`` of ``rows``."""
+    K = grid.size
+    iu, ix, ir, it = 0, K, 2 * K, 3 * K
+    owner = np.repeat(np.arange(K), np.diff(rows.start))[active]
+    eq = _Rows()
+    k = np.arange(K - 1)
+    eq.add(np.concatenate([k, k, k]), np.concatenate([ix + k + 1, ix + k, iu + k]),
+           np.concatenate([np.ones(K - 1), -np.ones(K - 1), -2.0 * np.diff(grid)]),
+           np.zeros(K - 1))
+    eq.add(np.array([0, 1]), np.array([ix, ix + K - 1]), np.ones(2), np.zeros(2))
+    le = _Rows()
+    r = np.arange(owner.size)
+    le.add(np.concatenate([r, r]), np.concatenate([iu + owner, ix + owner]),
+           np.concatenate([rows.rows[active, 0], rows.rows[active, 1]]), rows.rhs[active])
+    k = np.arange(K)
+    le.add(np.arange(2 * K), np.concatenate([ix + k, ir + k]), -np.ones(2 * K),
+           np.zeros(2 * K))
+    A, b, counts = _stack([eq, le, _cones(K, ix, ir, it)], it + K - 1)
+    return A, b, [counts[0], counts[1], 2 * K - 1]
+
+
+def convex_rows_timing(rows: StageRows, grid: NDArray, x_ref: NDArray, u_ref: NDArray,
+                       deadline: Deadline | None = None) -> tuple[NDArray, NDArray, str]:
+    """:func:`convex_timing` over the checks' rows in ``(u, x)``
+    (:mod:`tension_opt.dynamics.stage_rows`) instead of their tensions, with cutting
+    planes: first the rows within :data:`ACTIVE_ROOM` of binding at a feasible timing
+    ``x_ref, u_ref`` (the reachability passes'), then, up to :data:`CUTS` times, every
+    row the answer violates, until it violates none (it is then the optimum over all
+    rows: a program over fewer rows is a relaxation of it)."""
     deadline = deadline or Deadline()
-    K = checks.K
-    A, b, (zero, nonneg, socs), nz = timing_cone_program(checks, v_max, a_max, slack)
-    q = np.zeros(nz)
-    q[nz - (K - 1):] = 2.0 * np.diff(checks.grid)
-    settings = clarabel.DefaultSettings()
-    settings.verbose = False
-    if deadline.limited:
-        settings.time_limit = deadline.remaining()
-    cones = [clarabel.ZeroConeT(zero), clarabel.NonnegativeConeT(nonneg)]
-    cones += [clarabel.SecondOrderConeT(3)] * socs
-    deadline.check()
-    with quiet_solvers():
-        solution = clarabel.DefaultSolver(sp.csc_matrix((nz, nz)), q, A, b, cones,
-                                          settings).solve()
-    status = str(solution.status)
-    if status == "MaxTime":
-        raise OutOfTime
-    outcome = {"Solved": "optimal", "AlmostSolved": "optimal",
-               "PrimalInfeasible": "infeasible", "AlmostPrimalInfeasible": "infeasible",
-               "DualInfeasible": "unbounded",
-               "AlmostDualInfeasible": "unbounded"}.get(status, "error")
-    if outcome != "optimal":
-        return np.full(K, np.nan), np.full(K, np.nan), outcome
-    z = np.asarray(solution.x)
-    u = z[:K].copy()
-    u[-1] = u[-2]  # at rest at the end: the arrival's s''
-    return np.maximum(z[K:2 * K], 0.0), u, outcome
+    owner = np.repeat(np.arange(grid.size), np.diff(rows.start))
+    tol = 1e-9 * (1.0 + np.abs(rows.rhs))
+
+    def room(x: NDArray, u: NDArray) -> NDArray:
+        return rows.rhs - rows.rows[:, 0] * u[owner] - rows.rows[:, 1] * x[owner]
+
+    active = room(x_ref, u_ref) <= ACTIVE_ROOM * (1.0 + np.abs(rows.rhs))
+    for _ in range(CUTS):
+        A, b, sizes = _rows_program(rows, active, grid)
+        x, u, outcome = _solve_cones(A, b, sizes, grid, deadline)
+        if outcome != "optimal":
+            return x, u, outcome
+        cut = ~active & (room(x, u) < -tol)
+        if not cut.any():
+            return x, u, outcome
+        active |= cut
+    return x, u, "error"
