@@ -11,7 +11,7 @@ too, naming the argument): catch :class:`ValueError` to take both.
 
 from __future__ import annotations
 
-__all__ = ["CatenaryError", "InvalidCableError"]
+__all__ = ["CatenaryError", "InvalidCableError", "OptionalDependencyError"]
 
 
 class CatenaryError(Exception):
@@ -23,4 +23,12 @@ class InvalidCableError(CatenaryError, ValueError):
 
     Per-cable numerical trouble (no solution, no convergence) is never raised;
     it is reported in the ``status`` field of the solver results instead.
+    """
+
+
+class OptionalDependencyError(CatenaryError, ImportError):
+    """A feature needs a package of an optional extra that is not installed.
+
+    The message names the package and the extra, e.g. ``pip install
+    "tension-opt[viz]"`` for the interactive views (plotly).
     """
