@@ -185,9 +185,13 @@ def _modules_visited(call: Callable[[], object]) -> list[str]:
     return trail
 
 
-@pytest.mark.parametrize("objective, backend", [("min_sum", "auto"),
-                                                ("min_norm", "qpsolvers:daqp")])
-def test_one_distribute_call_comes_back_to_few_modules(objective: str, backend: str) -> None:
+@pytest.mark.parametrize("robot_name, objective, backend", [
+    ("algae_harvester", "min_sum", "auto"),
+    ("algae_harvester", "min_norm", "qpsolvers:daqp"),
+    ("cogiro", "min_max", "auto"),  # a 6-DOF robot through DAQP, its tie-break and certificate
+])
+def test_one_distribute_call_comes_back_to_few_modules(robot_name: str, objective: str,
+                                                       backend: str) -> None:
     """A call of distribute on a batch goes down the flow: it comes back to a module it
     has left at most 20 times (a reader follows it through one file per step)."""
     import numpy as np
@@ -196,10 +200,14 @@ def test_one_distribute_call_comes_back_to_few_modules(objective: str, backend: 
 
     if backend != "auto" and backend not in to.available_backends():
         pytest.skip(f"{backend} is not installed")
-    robot = to.presets.algae_harvester()
+    robot = getattr(to.presets, robot_name)()
     rng = np.random.default_rng(0)
-    poses = np.column_stack([rng.uniform(-30, 30, 200), rng.uniform(-20, 20, 200),
-                             np.full(200, 0.5)])
+    if robot.dof == 6:  # the platform level, translated about the centre
+        poses = np.zeros((100, 6))
+        poses[:, :3] = rng.uniform(-0.5, 0.5, (100, 3))
+    else:
+        poses = np.column_stack([rng.uniform(-30, 30, 200), rng.uniform(-20, 20, 200),
+                                 np.full(200, 0.5)])
     to.distribute(robot, poses, objective, backend)  # compiled and cached first
     trail = _modules_visited(lambda: to.distribute(robot, poses, objective, backend))
     again = len(trail) - len(set(trail))

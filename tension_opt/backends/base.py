@@ -29,16 +29,20 @@ import re
 import threading
 import time
 import warnings
-from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from tension_opt.backends.feasibility import settle_failures
-from tension_opt.backends.settings import objective_scales, time_limit_message, unreachable
+from tension_opt.backends.settings import (
+    WARNING_FILTER_LOCK,
+    objective_scales,
+    time_limit_message,
+    unreachable,
+)
 from tension_opt.backends.tiebreak import face_min_norm, lp_optimum_is_unique, optimal_face
 from tension_opt.certify.certificate import Certificate, Multipliers, certify
 from tension_opt.certify.scaling import ScaledBatch, scaled_batch
@@ -105,10 +109,9 @@ class Backend:
     #: Whether the backend can warm start from the previous pose.
     warm_start: bool = False
 
-    @property
-    def solver(self) -> str:
-        """Name of the underlying solver."""
-        return self.name.split(":")[-1]
+    #: Name of the underlying solver (an attribute, set by each backend: the flow reads
+    #: it without a call).
+    solver: str = ""
 
     @property
     def version(self) -> str:
@@ -156,7 +159,7 @@ class Backend:
             first.unique = np.ones(form.N, dtype=bool)
             return first
         assert first.multipliers is not None  # set by _certified
-        z = first.multipliers.bound_multipliers(form.m)  # of the scaled problem
+        z = first.multipliers.z[:, :form.m]  # of the tension bounds, scaled problem
         unique = np.ones(form.N, dtype=bool)
         idx = np.flatnonzero(first.status == Status.OPTIMAL)
         if len(idx):
@@ -290,7 +293,7 @@ class Backend:
         # Some solvers only warn about their options (scipy's linprog). Recording
         # warnings swaps the process's filters, so no other solve may start or end
         # meanwhile: the probe holds the lock of the solvers' filter.
-        with _QUIET.lock, warnings.catch_warnings(record=True) as caught:
+        with WARNING_FILTER_LOCK, warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             raw = self.solve_stage(form, **options)
         errors = raw.extras.get("errors")
@@ -391,55 +394,3 @@ def pose_loop_result(N: int, m: int) -> tuple[NDArray, NDArray, NDArray]:
     """Empty tensions (NaN), statuses (NOT_RUN) and iterations (0) for a pose loop."""
     return np.full((N, m), np.nan), status_array(N, Status.NOT_RUN), np.zeros(
         N, dtype=int)
-
-
-class _Quiet:
-    """Process-wide silencing of the solver libraries' own warnings, counted by user.
-
-    Their warnings (a matrix converted to CSC, "OSQP exited with status ...") repeat
-    what the statuses say. :func:`warnings.catch_warnings` per call is not safe across
-    threads (overlapping calls restore each other's filters and can leave warnings off
-    for good), so one filter is added when the first solve starts and removed when the
-    last one ends.
-    """
-
-    #: Modules whose warnings are silenced, and messages (cvxpy attributes its
-    #: "Solution may be inaccurate" to the caller).
-    MODULES = r"(qpsolvers|osqp|cvxpy|scs|clarabel|piqp|proxsuite|daqp|highspy)(\.|$)"
-    MESSAGES = r"Solution may be inaccurate"
-
-    def __init__(self) -> None:
-        # Re-entrant: an option probe holds it around solves that enter it again.
-        self.lock = threading.RLock()
-        self.users = 0
-        self.entries: list[Any] = []
-
-    def enter(self) -> None:
-        with self.lock:
-            if self.users == 0:
-                warnings.filterwarnings("ignore", module=self.MODULES)
-                warnings.filterwarnings("ignore", message=self.MESSAGES)
-                self.entries = list(warnings.filters[:2])
-            self.users += 1
-
-    def leave(self) -> None:
-        with self.lock:
-            self.users -= 1
-            if self.users == 0:
-                for entry in self.entries:
-                    if entry in warnings.filters:
-                        # The module's list (its stubs type it as a read-only sequence).
-                        cast("list[Any]", warnings.filters).remove(entry)
-
-
-_QUIET = _Quiet()
-
-
-@contextmanager
-def quiet_solvers() -> Iterator[None]:
-    """Silence the solver libraries' warnings while the block runs (thread-safe)."""
-    _QUIET.enter()
-    try:
-        yield
-    finally:
-        _QUIET.leave()

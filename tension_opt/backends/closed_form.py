@@ -54,6 +54,7 @@ class ClosedFormBackend(Backend):
     """
 
     name = "closed_form"
+    solver = "closed_form"
     exact = True
 
     def __init__(self, compiled: bool = True) -> None:

@@ -26,9 +26,13 @@ from tension_opt.backends.base import (
     note_time_limit,
     objective_powers,
     pose_loop_result,
-    quiet_solvers,
 )
-from tension_opt.backends.settings import solver_options, time_limit_of, with_objective_scale
+from tension_opt.backends.settings import (
+    quiet_solvers,
+    solver_options,
+    time_limit_of,
+    with_objective_scale,
+)
 from tension_opt.certify.certificate import Multipliers, certify
 from tension_opt.certify.scaling import ScaledBatch, scaled_batch
 from tension_opt.errors import BackendNotAvailableError
@@ -203,42 +207,38 @@ class CvxpyBackend(Backend):
                 f"cvxpy solver {solver!r} is not installed (installed: {installed}); "
                 "pip install 'tension-opt[solvers]'"
             )
-        self._solver = solver
+        self.solver = solver
         self.name = f"cvxpy:{solver}"
-
-    @property
-    def solver(self) -> str:
-        return self._solver
 
     @property
     def version(self) -> str:
         return f"cvxpy {cp.__version__}"
 
     def unsupported(self, form: StandardForm) -> str | None:
-        if self._solver in LP_ONLY and not form.is_linear:
+        if self.solver in LP_ONLY and not form.is_linear:
             return f"{self.name} solves linear programs only"
-        if self._solver in _NO_LP and not (form.q > 0).all():
+        if self.solver in _NO_LP and not (form.q > 0).all():
             return f"{self.name} is a QP solver unsuited to LPs (zero Hessian); use a QP objective"
         return None
 
     def rejected_options(self, user: Mapping[str, Any]) -> str | None:
         # cvxpy's DAQP and ProxQP interfaces drop the option names they do not pass on.
         known: tuple[str, ...] | None = None
-        if self._solver == "DAQP":
+        if self.solver == "DAQP":
             from cvxpy.reductions.solvers.qp_solvers.daqp_qpif import DAQP
 
             known = tuple(DAQP.ALLOWED_SOLVER_OPTS)
-        elif self._solver == "PROXQP":
+        elif self.solver == "PROXQP":
             known = _PROXQP_OPTIONS
         unknown = [] if known is None else sorted(set(map(str, user)) - set(known))
         if unknown:
-            return f"cvxpy's {self._solver} ignores {unknown}; it takes {sorted(known or ())}"
+            return f"cvxpy's {self.solver} ignores {unknown}; it takes {sorted(known or ())}"
         return None
 
     def _compiled(self, call: _Call, lb_mask: NDArray, ub_mask: NDArray) -> tuple[
             _Compiled, float]:
         batch = call.batch
-        key = (self._solver, batch.Aeq.shape[1], batch.m, bool(batch.P[:, :batch.m].any()),
+        key = (self.solver, batch.Aeq.shape[1], batch.m, bool(batch.P[:, :batch.m].any()),
                None if batch.epigraph is None else batch.epigraph.tobytes(), call.extra,
                lb_mask.shape, lb_mask.tobytes(), ub_mask.tobytes())
         cache = _cache()
@@ -266,12 +266,12 @@ class CvxpyBackend(Backend):
         target = accuracy_target(options.get("accuracy"))
         extra = 0 if form.G is None else form.G.shape[1]
         limit, user = time_limit_of(options), options.get("solver_options")
-        settings = [solver_options(self._solver, accuracy, limit, user, interface="cvxpy")
+        settings = [solver_options(self.solver, accuracy, limit, user, interface="cvxpy")
                     for accuracy in (target, JOINT_SHARE * target, TIGHT_JOINT_SHARE * target)]
         call = _Call(batch, extra, np.isfinite(batch.lb[:, :batch.m]),
                      np.isfinite(batch.ub[:, :batch.m]), bool(options.get("warm_start", False)),
                      settings[0], target, settings[1:], limit,
-                     objective_powers(self._solver, form, batch), user)
+                     objective_powers(self.solver, form, batch), user)
         # Joint stopping criteria loosen per-pose accuracy: tight targets go pose by pose.
         default_k = 1 if target < DEFAULT_TARGET else 16
         K = max(1, min(int(options.get("batch_size") or default_k), form.N))
@@ -347,11 +347,11 @@ class CvxpyBackend(Backend):
         answer, ``MAX_ITER`` with a message for the first of them."""
         if call.powers is not None:  # the objective of these poses, scaled for the solver
             power = int(np.rint(call.powers[rows].mean()))
-            settings = with_objective_scale(self._solver, settings, power, call.user)
+            settings = with_objective_scale(self.solver, settings, power, call.user)
         start = time.perf_counter()
         try:
             compiled.load(call, rows)
-            compiled.problem.solve(solver=self._solver, warm_start=call.warm, **settings)
+            compiled.problem.solve(solver=self.solver, warm_start=call.warm, **settings)
         except Exception as error:  # a solver's failure on these poses
             note_error(extras, int(rows[0]), error)
             return self._timed(call, start, extras, rows, Status.SOLVER_ERROR), None, None

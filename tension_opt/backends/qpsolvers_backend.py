@@ -23,9 +23,13 @@ from tension_opt.backends.base import (
     note_time_limit,
     objective_powers,
     pose_loop_result,
-    quiet_solvers,
 )
-from tension_opt.backends.settings import solver_options, time_limit_of, with_objective_scale
+from tension_opt.backends.settings import (
+    quiet_solvers,
+    solver_options,
+    time_limit_of,
+    with_objective_scale,
+)
 from tension_opt.certify.certificate import Multipliers
 from tension_opt.certify.scaling import ScaledBatch, scaled_batch
 from tension_opt.errors import BackendNotAvailableError
@@ -110,38 +114,34 @@ class QpsolversBackend(Backend):
                 f"qpsolvers solver {solver!r} is not installed (installed: {installed}); "
                 "pip install 'tension-opt[solvers]'"
             )
-        self._solver = solver
+        self.solver = solver
         self.name = f"qpsolvers:{solver}"
-
-    @property
-    def solver(self) -> str:
-        return self._solver
 
     @cached_property
     def version(self) -> str:
-        if self._solver == "daqp":
+        if self.solver == "daqp":
             from importlib.metadata import version
 
             return f"daqp {version('daqp')}"
         return f"qpsolvers {qpsolvers.__version__}"
 
     def unsupported(self, form: StandardForm) -> str | None:
-        if self._solver in _NEEDS_PD and (form.kind != "qp" or not (form.q > 0).all()):
+        if self.solver in _NEEDS_PD and (form.kind != "qp" or not (form.q > 0).all()):
             return f"{self.name} needs a positive-definite Hessian (QP objectives only)"
-        if self._solver in _NO_LP and not (form.q > 0).all():
+        if self.solver in _NO_LP and not (form.q > 0).all():
             return f"{self.name} is a QP solver unsuited to LPs (zero Hessian); use a QP objective"
         return None
 
     def rejected_options(self, user: Mapping[str, Any]) -> str | None:
         # PIQP and HiGHS (through qpsolvers) skip option names they do not know.
-        if self._solver == "piqp":
+        if self.solver == "piqp":
             import piqp
 
             known = {k for k in dir(piqp.DenseSolver().settings) if not k.startswith("_")}
             unknown = sorted(set(map(str, user)) - known)
             if unknown:
                 return f"unknown PIQP setting(s) {unknown}; PIQP takes {sorted(known)}"
-        if self._solver == "highs":
+        if self.solver == "highs":
             import highspy
 
             highs = highspy.Highs()
@@ -157,15 +157,15 @@ class QpsolversBackend(Backend):
         t0 = time.perf_counter()
         batch = scaled_batch(form)
         limit, user = time_limit_of(options), options.get("solver_options")
-        settings = solver_options(self._solver, options.get("accuracy"), limit, user)
+        settings = solver_options(self.solver, options.get("accuracy"), limit, user)
         warm = bool(options.get("warm_start", False))
         setup = time.perf_counter() - t0
+        if self.solver == "daqp":  # quiet where it calls the Python library (its loop)
+            return self._solve_daqp(batch, settings, warm, setup)
         with quiet_solvers():
-            if self._solver == "daqp":
-                return self._solve_daqp(batch, settings, warm, setup)
-            powers = objective_powers(self._solver, form, batch)
+            powers = objective_powers(self.solver, form, batch)
             per_pose = None if powers is None else [
-                with_objective_scale(self._solver, settings, int(p), user) for p in powers]
+                with_objective_scale(self.solver, settings, int(p), user) for p in powers]
             return self._solve_generic(batch, settings, warm, setup, limit, per_pose)
 
     def runs_sequences(self, options: Mapping[str, Any], smoothed: StandardForm) -> bool:
@@ -174,9 +174,9 @@ class QpsolversBackend(Backend):
         or, for the other solvers, each pose's solver call from Python between two
         compiled steps (its QP built, its answer judged). Not where smoothed poses are
         LPs (a rate limit alone), which the loop leaves to the pose-by-pose path."""
-        if self._solver in _NO_SEQUENCE or smoothed.kind != "qp":
+        if self.solver in _NO_SEQUENCE or smoothed.kind != "qp":
             return False
-        if self._solver != "daqp":
+        if self.solver != "daqp":
             return True
         from tension_opt.kernels import daqp_native
 
@@ -197,7 +197,7 @@ class QpsolversBackend(Backend):
         from tension_opt.kernels import dense_qp
 
         self.check_solver_options(options)
-        settings = solver_options(self._solver, options.get("accuracy"),
+        settings = solver_options(self.solver, options.get("accuracy"),
                                   time_limit_of(options), options.get("solver_options"))
         target = accuracy_target(options.get("accuracy"))
         tol = max(FEASIBILITY_TOL, 10.0 * target)
@@ -207,7 +207,7 @@ class QpsolversBackend(Backend):
         arrays = [np.ascontiguousarray(x, dtype=float)
                   for x in (base.A, base.b, base.lb, base.ub, base.q, base.c)]
         rate = np.ascontiguousarray(rate, dtype=float)
-        if self._solver == "daqp":
+        if self.solver == "daqp":
             structs = _native_structs(settings)
             if structs is None:
                 return start
@@ -266,7 +266,7 @@ class QpsolversBackend(Backend):
                                         lbs if bounded_lb else None,
                                         ubs if bounded_ub else None)
             try:
-                sol = qpsolvers.solve_problem(problem, solver=self._solver, initvals=None,
+                sol = qpsolvers.solve_problem(problem, solver=self.solver, initvals=None,
                                               **settings)
             except Exception:  # the backend's own call of this pose names the error
                 return k
@@ -320,7 +320,7 @@ class QpsolversBackend(Backend):
                                         ub[i] if has_ub[i] else None)
             start = time.perf_counter()
             try:
-                sol = qpsolvers.solve_problem(problem, solver=self._solver,
+                sol = qpsolvers.solve_problem(problem, solver=self.solver,
                                               initvals=x_prev if warm else None,
                                               **(settings if per_pose is None else per_pose[i]))
             except Exception as error:  # a solver's failure on one pose
@@ -380,8 +380,9 @@ class QpsolversBackend(Backend):
             failed = flags <= 0
             x_all[failed], lam[failed] = np.nan, np.nan
         else:
-            flags = self._daqp_loop(H, batch.c.copy(), rows, upper, lower, sense, settings,
-                                    warm, x_all, lam, iters, extras)
+            with quiet_solvers():
+                flags = self._daqp_loop(H, batch.c.copy(), rows, upper, lower, sense,
+                                        settings, warm, x_all, lam, iters, extras)
         good = flags > 0
         status[good] = Status.OPTIMAL
         for j in np.flatnonzero(~good):

@@ -108,6 +108,11 @@ def able_backends(form: StandardForm) -> list[str]:
     return [n for n in available_backends() if get_backend(n).unsupported(form) is None]
 
 
+def _label(form: StandardForm, what: str) -> str:
+    """What the problem is, for an error message (built only when one is raised)."""
+    return what or (form.problem.name if form.problem is not None else "this problem")
+
+
 def choose_backend(backend: str | Backend, form: StandardForm,
                    order: Sequence[str] = AUTO_ORDER, *, what: str = "") -> Backend:
     """The backend for ``form``: the one named (checked), or the first of ``order``
@@ -130,7 +135,6 @@ def choose_backend(backend: str | Backend, form: StandardForm,
         If the named backend cannot take the problem (naming those that can), or no
         installed backend can.
     """
-    label = what or (form.problem.name if form.problem is not None else "this problem")
     if isinstance(backend, Backend):
         chosen = backend
     elif isinstance(backend, str) and backend == "auto":
@@ -139,13 +143,15 @@ def choose_backend(backend: str | Backend, form: StandardForm,
             if name in installed and get_backend(name).unsupported(form) is None:
                 return get_backend(name)
         raise UnsupportedProblemError(
-            f"no installed backend solves {label}; pip install 'tension-opt[solvers]'")
+            f"no installed backend solves {_label(form, what)}; "
+            "pip install 'tension-opt[solvers]'")
     else:
         chosen = get_backend(backend)
     reason = chosen.unsupported(form)
     if reason is not None:
         raise UnsupportedProblemError(
-            f"{reason} (problem: {label}; backends that can: {able_backends(form)})")
+            f"{reason} (problem: {_label(form, what)}; backends that can: "
+            f"{able_backends(form)})")
     return chosen
 
 

@@ -37,6 +37,7 @@ class ScipyHighsBackend(Backend):
     """
 
     name = "scipy:highs"
+    solver = "highs"
 
     @property
     def version(self) -> str:

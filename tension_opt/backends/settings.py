@@ -27,9 +27,12 @@ or scipy); :data:`CVXPY_NAMES` renames the few options cvxpy spells differently 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+import threading
+import warnings
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,9 +41,9 @@ from tension_opt.errors import InvalidInputError
 from tension_opt.tolerances import ACCURACY_TARGETS, DEFAULT_TARGET, accuracy_target
 
 __all__ = ["ACCURACIES", "CVXPY_DROPS", "CVXPY_NAMES", "DEFAULT_TARGET", "DEFAULT_TIME_LIMIT",
-           "OPTIONS", "SETTINGS", "SolverSettings", "accuracy_target", "check_accuracy",
-           "check_options", "objective_scales", "solver_options", "time_limit_message",
-           "time_limit_of", "unreachable", "with_objective_scale"]
+           "OPTIONS", "SETTINGS", "WARNING_FILTER_LOCK", "SolverSettings", "accuracy_target",
+           "check_accuracy", "check_options", "objective_scales", "quiet_solvers", "solver_options",
+           "time_limit_message", "time_limit_of", "unreachable", "with_objective_scale"]
 
 #: Accuracy names every backend accepts (a number between 1e-14 and 1e-2 is accepted too).
 ACCURACIES: tuple[str, ...] = tuple(ACCURACY_TARGETS)
@@ -327,3 +330,58 @@ def solver_options(solver: str, accuracy: object = "default",
                 f"solver_options must be a dict of the solver's own options, got {user!r}")
         options.update(user)
     return options
+
+
+class _Quiet:
+    """Process-wide silencing of the solver libraries' own warnings, counted by user.
+
+    Their warnings (a matrix converted to CSC, "OSQP exited with status ...") repeat
+    what the statuses say. :func:`warnings.catch_warnings` per call is not safe across
+    threads (overlapping calls restore each other's filters and can leave warnings off
+    for good), so one filter is added when the first solve starts and removed when the
+    last one ends.
+    """
+
+    #: Modules whose warnings are silenced, and messages (cvxpy attributes its
+    #: "Solution may be inaccurate" to the caller).
+    MODULES = r"(qpsolvers|osqp|cvxpy|scs|clarabel|piqp|proxsuite|daqp|highspy)(\.|$)"
+    MESSAGES = r"Solution may be inaccurate"
+
+    def __init__(self) -> None:
+        # Re-entrant: an option probe holds it around solves that enter it again.
+        self.lock = threading.RLock()
+        self.users = 0
+        self.entries: list[Any] = []
+
+    def enter(self) -> None:
+        with self.lock:
+            if self.users == 0:
+                warnings.filterwarnings("ignore", module=self.MODULES)
+                warnings.filterwarnings("ignore", message=self.MESSAGES)
+                self.entries = list(warnings.filters[:2])
+            self.users += 1
+
+    def leave(self) -> None:
+        with self.lock:
+            self.users -= 1
+            if self.users == 0:
+                for entry in self.entries:
+                    if entry in warnings.filters:
+                        # The module's list (its stubs type it as a read-only sequence).
+                        cast("list[Any]", warnings.filters).remove(entry)
+
+
+_QUIET = _Quiet()
+#: Held while a solve swaps the process's warning filters (an option probe), so that no
+#: other solve starts or ends meanwhile.
+WARNING_FILTER_LOCK = _QUIET.lock
+
+
+@contextmanager
+def quiet_solvers() -> Iterator[None]:
+    """Silence the solver libraries' warnings while the block runs (thread-safe)."""
+    _QUIET.enter()
+    try:
+        yield
+    finally:
+        _QUIET.leave()

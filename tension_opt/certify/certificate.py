@@ -33,7 +33,7 @@ solution (the closed form) this gives its exact multipliers.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -116,6 +116,9 @@ class Certificate:
     target : float
         The accuracy target they are judged against.
     multipliers : Multipliers
+    certified : ndarray of bool, shape (N,)
+        Poses whose three measures all meet the target (NaN fails); kept up to date by
+        :meth:`put` (a field, not a property: the flow reads it without coming back).
     """
 
     primal_residual: NDArray
@@ -123,6 +126,15 @@ class Certificate:
     duality_gap: NDArray
     target: float
     multipliers: Multipliers
+    certified: NDArray = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.certified = self._meets_target()
+
+    def _meets_target(self) -> NDArray:
+        t = self.target
+        return (self.primal_residual <= t) & (self.dual_residual <= t) & (
+            self.duality_gap <= t)
 
     def put(self, poses: NDArray, other: Certificate) -> None:
         """Write ``other``'s measures and multipliers (of these poses, same target)
@@ -131,13 +143,14 @@ class Certificate:
         self.dual_residual[poses] = other.dual_residual
         self.duality_gap[poses] = other.duality_gap
         self.multipliers.put(poses, other.multipliers)
+        self.certified = self._meets_target()
 
-    @property
-    def certified(self) -> NDArray:
-        """Poses whose three measures all meet the target, shape (N,) (NaN fails)."""
-        t = self.target
-        return (self.primal_residual <= t) & (self.dual_residual <= t) & (
-            self.duality_gap <= t)
+    def forget(self, poses: NDArray) -> None:
+        """Set the measures of rows ``poses`` (indices or mask) to NaN: poses without a
+        solution, which the certificate then does not certify."""
+        for measure in (self.primal_residual, self.dual_residual, self.duality_gap):
+            measure[poses] = np.nan
+        self.certified = self._meets_target()
 
 
 def _cones(batch: ScaledBatch, mult: Multipliers) -> tuple[NDArray, NDArray]:

@@ -190,7 +190,8 @@ class CertifiedBatch:
             status=StatusCodes(self.codes) if self.status is None  # type: ignore[arg-type]
             else self.status,
             iterations=self.iterations, setup_time=setup_time, solve_time=solve_time,
-            backend=backend.name, solver=backend.solver, solver_version=backend.version,
+            backend=backend.name, solver=backend.solver or backend.name.split(":")[-1],
+            solver_version=backend.version,
             problem=problem, extras=extras, form=None, accuracy=self.plan.target,
             multipliers=self.multipliers, **self.measures)
 

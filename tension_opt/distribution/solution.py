@@ -235,9 +235,9 @@ class TensionSolution:
         with np.errstate(over="ignore", invalid="ignore"):
             residual = form.equilibrium_residual(T)
             violation = form.bound_violation(T)
+            tol = max(FEASIBILITY_TOL, 10.0 * target) * form.load_scale()
             objective = form.objective_value(T)
         violation[~solved] = np.nan
-        tol = max(FEASIBILITY_TOL, 10.0 * target) * form.load_scale()
         # Written so that a NaN measure (an overflow) fails the certificate.
         feasible = (residual <= tol) & (violation <= tol)
         certificate, certified = _certificate(form, T, multipliers, target, optimality,
@@ -430,8 +430,8 @@ def _certificate(form: StandardForm, tensions: NDArray, multipliers: Multipliers
     residual and gap are NaN). A certificate ``given`` by the backend, of these tensions
     at this target, is taken instead, its measures NaN where a pose is not ``solved``."""
     if given is not None and optimality and given.target == target and solved is not None:
-        for measure in (given.primal_residual, given.dual_residual, given.duality_gap):
-            measure[~solved] = np.nan
+        if not solved.all():
+            given.forget(~solved)
         return given, given.certified
     if form.N == 0:
         empty = np.zeros(0)
@@ -454,7 +454,8 @@ def solution_of(form: StandardForm, raw: RawResult, backend: Backend,
     ``setup_time`` (s) is added to the backend's own (e.g. the geometry's).
     """
     return TensionSolution.from_form(
-        form, raw.tensions, raw.status, backend=backend.name, solver=backend.solver,
+        form, raw.tensions, raw.status, backend=backend.name,
+        solver=backend.solver or backend.name.split(":")[-1],
         solver_version=backend.version, unique=raw.unique, iterations=raw.iterations,
         infeasibility=raw.infeasibility, setup_time=raw.setup_time + setup_time,
         solve_time=raw.solve_time, extras=raw.extras, multipliers=raw.multipliers,

@@ -24,7 +24,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from tension_opt.backends.base import quiet_solvers
+from tension_opt.backends.settings import quiet_solvers
 from tension_opt.dynamics.deadline import Deadline, OutOfTime
 from tension_opt.dynamics.intervals import StageChecks
 from tension_opt.dynamics.stage_lp import check_limits

@@ -17,9 +17,9 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from tension_opt.backends.base import note_error, quiet_solvers
+from tension_opt.backends.base import note_error
 from tension_opt.backends.registry import get_backend
-from tension_opt.backends.settings import check_options, solver_options
+from tension_opt.backends.settings import check_options, quiet_solvers, solver_options
 from tension_opt.certify.scaling import reference_tension
 from tension_opt.distribution.entry import distribute
 from tension_opt.distribution.solution import TensionSolution
