@@ -28,8 +28,12 @@ REPORT_DIR = ROOT / "benchmarks" / "results"
 REPORT_PAGE = "benchmarks/report.md"
 
 #: Pages and pictures of the robot views, written apart from the rest of the site.
-OPTIONAL = ("views.md", "images/study_pond_sag.png", "images/cogiro_rotated.png",
-            "images/pick_and_place_frame.png")
+OPTIONAL = (
+    "views.md",
+    "images/study_pond_sag.png",
+    "images/cogiro_rotated.png",
+    "images/pick_and_place_frame.png",
+)
 
 #: API page -> the package whose ``__all__`` it must cover.
 API_PAGES = {"api/tension_opt.md": "tension_opt", "api/catenary.md": "catenary"}
@@ -44,7 +48,8 @@ def _public_names(package: str) -> list[str]:
     tree = ast.parse((ROOT / package / "__init__.py").read_text())
     for node in tree.body:
         if isinstance(node, ast.Assign) and any(
-                isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets):
+            isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets
+        ):
             return [str(v) for v in ast.literal_eval(node.value)]
     return []
 
@@ -75,8 +80,9 @@ def on_files(files: Files, config: Any) -> Files:
     if report.is_file():
         files.append(File.generated(config, REPORT_PAGE, abs_src_path=str(report)))
         for picture in sorted(REPORT_DIR.glob("*.png")):
-            files.append(File.generated(config, f"benchmarks/{picture.name}",
-                                        abs_src_path=str(picture)))
+            files.append(
+                File.generated(config, f"benchmarks/{picture.name}", abs_src_path=str(picture))
+            )
     return files
 
 
@@ -117,5 +123,6 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Files) -> str
         rest = [name for name in _public_names(package) if name not in documented]
         if rest:
             markdown += "\n## Other names\n\n" + "".join(
-                f"::: {package}.{name}\n\n" for name in rest)
+                f"::: {package}.{name}\n\n" for name in rest
+            )
     return markdown
