@@ -26,6 +26,10 @@ A :class:`tension_opt.CableRobot` whose cables sag (built on ``tension_opt``):
   (:func:`stiffness_map`, :func:`plot_stiffness_map`).
 - ``catenary.timing``: sag-aware time-optimal timing of a path
   (:func:`time_optimal_sag`).
+- ``catenary.viz``: views of the robot with its sagging cables (:func:`plot_robot`,
+  matplotlib or plotly), animations along a path (:func:`animate`), workspace and
+  compliance overlays (:func:`plot_workspace`, :func:`plot_compliance`); matplotlib and
+  plotly are imported when a view is drawn.
 """
 
 from pathlib import Path
@@ -66,6 +70,16 @@ from .robot_stiffness import StiffnessResult, platform_stiffness, stiffness_anal
 from .solve import ForcesResult, LengthResult, solve_forces, solve_length
 from .stiffness_maps import StiffnessMap, plot_stiffness_map, stiffness_map
 from .timing import SagTimingResult, time_optimal_sag
+from .viz import (
+    RobotScene,
+    ViewOptions,
+    animate,
+    animation_figure,
+    plot_compliance,
+    plot_robot,
+    plot_workspace,
+    robot_scene,
+)
 from .workspace import SagWorkspaceResult, sag_workspace
 
 __all__ = [
@@ -77,11 +91,15 @@ __all__ = [
     "InvalidCableError",
     "InverseKinematicsResult",
     "LengthResult",
+    "RobotScene",
     "SagTimingResult",
     "SagWorkspaceResult",
     "StiffnessMap",
     "StiffnessResult",
     "VibrationModes",
+    "ViewOptions",
+    "animate",
+    "animation_figure",
     "breaking_load",
     "cable_properties",
     "coupled_margin",
@@ -95,8 +113,12 @@ __all__ = [
     "material_names",
     "natural_frequencies",
     "platform_stiffness",
+    "plot_compliance",
+    "plot_robot",
     "plot_stiffness_map",
+    "plot_workspace",
     "profile",
+    "robot_scene",
     "sag_workspace",
     "solve_forces",
     "solve_length",

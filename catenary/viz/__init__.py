@@ -15,6 +15,8 @@ matplotlib and plotly are imported when a view is drawn, not on import.
 """
 
 from .animation import animate, animation_figure
+from .options import ViewOptions
+from .overlays import compliance_ellipsoid, plot_compliance, plot_workspace
 from .scene import MODELS, STATES, RobotScene, robot_scene, robot_scenes, sag_below_chord
 from .views import plot_robot
 
@@ -22,9 +24,13 @@ __all__ = [
     "MODELS",
     "STATES",
     "RobotScene",
+    "ViewOptions",
     "animate",
     "animation_figure",
+    "compliance_ellipsoid",
+    "plot_compliance",
     "plot_robot",
+    "plot_workspace",
     "robot_scene",
     "robot_scenes",
     "sag_below_chord",

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -28,6 +28,7 @@ from .drawing import (
     state_legend,
     tension_norm,
 )
+from .options import ViewOptions, resolve, solve_options
 from .scene import RobotScene, ViewModel, check_model, robot_scenes
 from .views import check_positive_number
 
@@ -107,7 +108,7 @@ class _Animator:
             _mappable(norm, cmap),
             ax=ax,
             shrink=0.6,
-            pad=0.12 if view == "3d" else 0.04,
+            pad=0.16 if view == "3d" else 0.04,
             label="tension (N)",
         )
         tensions = np.array([s.tensions for s in scenes])
@@ -189,23 +190,36 @@ def _mappable(norm: Any, cmap: Any) -> Any:
 
 
 def _prepare(
-    robot: CableRobot, poses_or_trajectory: Any, options: dict[str, Any], solve: dict[str, Any]
-) -> tuple[list[RobotScene], FloatArray, bool, str, float]:
-    """Checked arguments and the solved scenes of an animation's frames."""
+    robot: CableRobot,
+    poses_or_trajectory: Any,
+    frame_args: dict[str, Any],
+    options: dict[str, Any],
+) -> tuple[list[RobotScene], FloatArray, bool, str, float, dict[str, Any]]:
+    """Checked arguments, the solved scenes of an animation's frames, their times,
+    whether those are times, the view, its ``z_scale`` and the resolved options."""
     check_robot(robot)
-    check_model(options["model"])
-    view = check_view(options["view"], robot)
-    z_scale = check_positive_number("z_scale", options["z_scale"])
+    model = frame_args["model"]
+    check_model(model)
+    view = check_view(frame_args["view"], robot)
+    z_scale = check_positive_number("z_scale", frame_args["z_scale"])
+    opts = resolve(options, samples=41, figsize=(11.0, 4.6))
+    if opts["title"] is None:
+        opts["title"] = f"{robot.name}: {model} cables along the path"
     poses, times, timed, keep = path_frames(
-        robot, poses_or_trajectory, options["times"], options["frames"]
+        robot, poses_or_trajectory, frame_args["times"], frame_args["frames"]
     )
-    tensions = options["tensions"]
+    tensions = frame_args["tensions"]
     if tensions is not None and np.ndim(tensions) == 2 and len(tensions) > len(keep):
         tensions = np.asarray(tensions, dtype=float)[keep]  # one row per pose of the path
     scenes = robot_scenes(
-        robot, poses, tensions, options["model"], samples=options["samples"], **solve
+        robot,
+        poses,
+        tensions,
+        model,  # type: ignore[arg-type]
+        samples=opts["samples"],
+        **solve_options(opts),
     )
-    return scenes, times, timed, view, z_scale
+    return scenes, times, timed, view, z_scale, opts
 
 
 def animation_figure(
@@ -219,26 +233,16 @@ def animation_figure(
     frames: int | None = 30,
     view: str | None = None,
     z_scale: float = 1.0,
-    samples: int = 41,
-    cmap: Any = "viridis",
-    tension_range: ArrayLike | None = None,
-    platform_size: float | None = None,
-    title: str | None = None,
-    figsize: tuple[float, float] = (11.0, 4.6),
-    **solve: Any,
+    **options: Unpack[ViewOptions],
 ) -> Figure:
-    """One frame of :func:`animate` as a matplotlib figure (same arguments, and the
-    index ``frame`` among the kept frames, negative from the end)."""
-    options = dict(
-        model=model,
-        view=view,
-        z_scale=z_scale,
-        times=times,
-        frames=frames,
-        tensions=tensions,
-        samples=samples,
+    """One frame of :func:`animate` as a matplotlib figure: the same arguments, and
+    ``frame`` the index among the kept frames (negative from the end)."""
+    frame_args = dict(
+        tensions=tensions, model=model, times=times, frames=frames, view=view, z_scale=z_scale
     )
-    scenes, t, timed, view, z_scale = _prepare(robot, poses_or_trajectory, options, solve)
+    scenes, t, timed, view, z_scale, opts = _prepare(
+        robot, poses_or_trajectory, frame_args, dict(options)
+    )
     if (
         isinstance(frame, bool)
         or not isinstance(frame, int | np.integer)
@@ -247,21 +251,9 @@ def animation_figure(
         raise InvalidCableError(
             f"frame must be an integer index into the {len(scenes)} frames; got frame={frame!r}"
         )
-    style = dict(
-        cmap=cmap,
-        tension_range=tension_range,
-        platform_size=platform_size,
-        figsize=figsize,
-        title=_title(robot, model, title),
-    )
-    animator = _Animator(scenes, t, timed, view, z_scale, style)
+    animator = _Animator(scenes, t, timed, view, z_scale, opts)
     animator.show(int(frame) % len(scenes))
     return animator.fig
-
-
-def _title(robot: CableRobot, model: str, title: str | None) -> str:
-    """The default title of an animation."""
-    return f"{robot.name}: {model} cables along the path" if title is None else title
 
 
 def animate(
@@ -276,14 +268,8 @@ def animate(
     fps: float = 10.0,
     view: str | None = None,
     z_scale: float = 1.0,
-    samples: int = 41,
-    cmap: Any = "viridis",
-    tension_range: ArrayLike | None = None,
-    platform_size: float | None = None,
-    title: str | None = None,
-    figsize: tuple[float, float] = (11.0, 4.6),
     dpi: int = 80,
-    **solve: Any,
+    **options: Unpack[ViewOptions],
 ) -> Path:
     """Write the platform moving along a path, with its cables and a tension trace.
 
@@ -292,34 +278,27 @@ def animate(
     robot : CableRobot
     poses_or_trajectory : array_like, shape (N, n), or a trajectory
         Poses along the path (m, rad), or an object with ``poses`` (N, n) and ``times``
-        (N,) (s): a :class:`tension_opt.dynamics.TimedTrajectory` or a timing result.
+        (N,) (s): a :class:`tension_opt.dynamics.TimedTrajectory`, a timing result.
     path : str or Path
-        The file to write; its suffix picks the format: ``.gif`` (matplotlib and
-        pillow), ``.mp4`` (matplotlib, needs the ``ffmpeg`` program) or ``.html``
-        (self-contained plotly page with a play button and a slider; the ``viz``
-        extra).
+        The file; its suffix is the format: ``.gif`` (matplotlib and pillow), ``.mp4``
+        (needs the ``ffmpeg`` program) or ``.html`` (one self-contained plotly page
+        with a play button and a slider; the ``viz`` extra).
     tensions : array_like, shape (N, m), optional
-        Tension of each cable at its drawing point (N) at each pose (e.g. dynamic ones
-        from :func:`tension_opt.dynamics.distribute_trajectory`); thinned with the
-        poses. Default: the sag model's own static tensions.
+        Tension of each cable at its drawing point (N) at each pose (e.g. dynamic ones,
+        :func:`tension_opt.dynamics.distribute_trajectory`). Default: the model's own.
     model : {"coupled", "thesis", "straight"}
     times : array_like, shape (N,), optional
         Time of each pose (s); default the trajectory's, else the pose index.
     frames : int or None
-        At most this many frames, evenly spaced along the path (ends kept); None: one
-        per pose.
+        At most this many frames, evenly spaced (ends kept); None: one per pose.
     fps : float
-        Frames per second of the GIF or MP4, and the HTML's playing speed.
-    view, z_scale, samples, cmap, tension_range, platform_size
-        As in :func:`catenary.viz.plot_robot` (``samples`` points per catenary).
-    title : str, optional
-        Default: the robot and the model; ``""`` for none.
-    figsize : (float, float)
-        Figure size (inches) of the GIF or MP4.
+        Frames per second (the HTML's playing speed too).
+    view, z_scale
+        As in :func:`catenary.viz.plot_robot`.
     dpi : int
-        Resolution of the GIF or MP4 (dots per inch).
-    **solve
-        ``wrench``, ``objective``, ``backend``, solver options for the default tensions.
+        Resolution of a GIF or MP4 (dots per inch).
+    **options
+        :class:`~catenary.viz.ViewOptions` (``samples`` 41, ``figsize`` (11, 4.6)).
 
     Returns
     -------
@@ -329,61 +308,48 @@ def animate(
     Raises
     ------
     InvalidCableError
-        For an unknown suffix, model or view, or arguments out of their domain.
+        For an unknown suffix, model, view or option, or arguments out of their domain.
     OptionalDependencyError
         For ``.mp4`` without ffmpeg, ``.html`` without plotly.
     """
     target = Path(path)
-    suffix = target.suffix.lower()
-    if suffix not in FORMATS:
+    if target.suffix.lower() not in FORMATS:
         raise InvalidCableError(
             f"path must end in .gif, .mp4 or .html (the format); got {str(path)!r}"
         )
     fps = check_positive_number("fps", fps)
-    options = dict(
-        model=model,
-        view=view,
-        z_scale=z_scale,
-        times=times,
-        frames=frames,
-        tensions=tensions,
-        samples=samples,
+    frame_args = dict(
+        tensions=tensions, model=model, times=times, frames=frames, view=view, z_scale=z_scale
     )
-    scenes, t, timed, view, z_scale = _prepare(robot, poses_or_trajectory, options, solve)
-    title = _title(robot, model, title)
-    if suffix == ".html":
-        from .plotly_view import plotly_animation
+    prepared = _prepare(robot, poses_or_trajectory, frame_args, dict(options))
+    if target.suffix.lower() == ".html":
+        return _write_html(prepared, target, fps)
+    return _write_movie(*prepared[:5], target, fps, dpi, prepared[5])
 
-        fig = plotly_animation(
-            scenes,
-            t,
-            view=view,
-            z_scale=z_scale,
-            cmap=cmap,
-            tension_range=tension_range,
-            platform_size=platform_size,
-            title=title,
-            frame_ms=round(1000 / fps),
-        )
-        fig.write_html(target, include_plotlyjs=True, full_html=True, auto_play=False)
-        return target
-    return _write_movie(
+
+def _write_html(
+    prepared: tuple[list[RobotScene], FloatArray, bool, str, float, dict[str, Any]],
+    target: Path,
+    fps: float,
+) -> Path:
+    """Write the frames as one self-contained plotly page."""
+    from .plotly_view import plotly_animation
+
+    scenes, t, timed, view, z_scale, opts = prepared
+    fig = plotly_animation(
         scenes,
         t,
-        timed,
-        view,
-        z_scale,
-        target,
-        fps,
-        dpi,
-        dict(
-            cmap=cmap,
-            tension_range=tension_range,
-            platform_size=platform_size,
-            figsize=figsize,
-            title=title,
-        ),
+        view=view,
+        z_scale=z_scale,
+        cmap=opts["cmap"],
+        tension_range=opts["tension_range"],
+        platform_size=opts["platform_size"],
+        title=opts["title"],
+        frame_ms=round(1000 / fps),
+        time_label="time (s)" if timed else "pose",
     )
+    fig.write_html(target, include_plotlyjs=True, full_html=True, auto_play=False)
+    return target
 
 
 def _write_movie(

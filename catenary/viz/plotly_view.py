@@ -120,9 +120,16 @@ def cable_traces(
 
 
 def _fixed_traces(
-    go: Any, scene: RobotScene, view: str, norm: Any, cmap: Any, platform_size: float | None
+    go: Any,
+    scene: RobotScene,
+    view: str,
+    norm: Any,
+    cmap: Any,
+    platform_size: float | None,
+    bar_x: float = 1.02,
 ) -> list[Any]:
-    """The platform, the drawing points and the colour-bar carrier of ``scene``."""
+    """The platform, the drawing points and the colour-bar carrier of ``scene`` (its
+    colour bar at ``bar_x``, paper coordinates)."""
     vertices, triangles = scene.platform(platform_size)
     anchors = {
         "marker": {
@@ -149,7 +156,7 @@ def _fixed_traces(
             "cmax": norm.vmax,
             "colorscale": _colourscale(cmap),
             "showscale": True,
-            "colorbar": {"title": {"text": "tension (N)"}},
+            "colorbar": {"title": {"text": "tension (N)"}, "x": bar_x, "len": 0.8},
         },
     }
     if view == "3d":
@@ -225,15 +232,14 @@ def _layout(scenes: list[RobotScene], view: str, z_scale: float) -> dict[str, An
 def plotly_figure(
     scenes: list[RobotScene],
     reference: RobotScene | None,
-    *,
     view: str,
     z_scale: float,
-    cmap: Any,
-    tension_range: ArrayLike | None,
-    platform_size: float | None,
-    title: str,
+    opts: dict[str, Any],
 ) -> Any:
-    """The interactive figure of ``scenes[0]`` (see :func:`catenary.viz.plot_robot`)."""
+    """The interactive figure of ``scenes[0]`` (see :func:`catenary.viz.plot_robot`;
+    ``opts`` its resolved :class:`~catenary.viz.ViewOptions`)."""
+    cmap, tension_range = opts["cmap"], opts["tension_range"]
+    platform_size, title = opts["platform_size"], opts["title"]
     go = require_plotly()
     scene = scenes[0]
     norm = tension_norm(scenes, tension_range)
@@ -263,6 +269,7 @@ def plotly_animation(
     platform_size: float | None,
     title: str,
     frame_ms: int,
+    time_label: str = "time (s)",
 ) -> Any:
     """The platform moving through ``scenes`` at ``times`` (s), with the tension trace
     beside it and a frame cursor on the trace; a play button and a slider."""
@@ -276,12 +283,13 @@ def plotly_animation(
         rows=1,
         cols=2,
         specs=[[left, {"type": "xy"}]],
-        column_widths=[0.62, 0.38],
-        horizontal_spacing=0.08,
+        column_widths=[0.58, 0.42],
+        horizontal_spacing=0.16,
     )
     moving = cable_traces(go, first, view, norm, cmap)
     moving += _fixed_traces(go, first, view, norm, cmap, platform_size)[:1]
-    for trace in moving + _fixed_traces(go, first, view, norm, cmap, platform_size)[1:]:
+    still = _fixed_traces(go, first, view, norm, cmap, platform_size, bar_x=0.5)[1:]
+    for trace in moving + still:
         fig.add_trace(trace, row=1, col=1)
     tensions = np.array([s.tensions for s in scenes])
     colours = colour_map("tab10")
@@ -324,7 +332,7 @@ def plotly_animation(
     fig.update_layout(
         title={"text": title},
         template="plotly_white",
-        xaxis2={"title": {"text": "time (s)"}},
+        xaxis2={"title": {"text": time_label}},
         yaxis2={"title": {"text": "tension at the drawing point (N)"}},
         **layout,
     )

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -21,6 +21,7 @@ from .drawing import (
     state_legend,
     tension_norm,
 )
+from .options import ViewOptions, resolve, solve_options
 from .scene import RobotScene, ViewModel, check_model, robot_scene
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -83,15 +84,7 @@ def plot_robot(
     reference: ViewModel | None = None,
     view: str | None = None,
     z_scale: float = 1.0,
-    samples: int = 101,
-    cmap: Any = "viridis",
-    tension_range: ArrayLike | None = None,
-    platform_size: float | None = None,
-    colorbar: bool = True,
-    legend: bool = True,
-    title: str | None = None,
-    figsize: tuple[float, float] = (7.0, 5.5),
-    **solve: Any,
+    **options: Unpack[ViewOptions],
 ) -> Figure | Any:
     """Draw the robot at one pose: drawing points, platform and cables coloured by tension.
 
@@ -109,136 +102,107 @@ def plot_robot(
     ax : matplotlib Axes, optional
         Axes to draw on (3-D for the 3-D view); default a new figure.
     engine : {"matplotlib", "plotly"}
-        ``"plotly"`` returns an interactive ``plotly.graph_objects.Figure`` (hover for
-        tension, length and sag; needs the ``viz`` extra, ``pip install
-        "tension-opt[viz]"``); ``ax`` must then be None.
+        ``"plotly"``: an interactive ``plotly.graph_objects.Figure`` (hover for tension,
+        length and sag; the ``viz`` extra, ``pip install "tension-opt[viz]"``).
     reference : {"coupled", "thesis", "straight"}, optional
-        Another model's cables drawn thin and dotted over these (e.g. ``"straight"``
-        against the coupled sag).
+        Another model's cables drawn thin and dotted (e.g. straight against coupled).
     view : {"3d", "xy", "xz", "yz"}, optional
-        3-D, or a projection on a base plane. Default 3-D, the robot's plane for a
-        planar robot.
+        3-D, or a projection on a base plane; default 3-D, a planar robot's plane.
     z_scale : float
-        The vertical axis is drawn ``z_scale`` times its true scale (its ticks stay in
-        metres), to show the sag of long flat robots; 1 draws true proportions.
-    samples : int
-        Points along each catenary.
-    cmap : str
-        Colour map of the tensions.
-    tension_range : (float, float), optional
-        Tensions (N) at the two ends of the colour scale; default from the lowest bound
-        or tension to the largest tension.
-    platform_size : float, optional
-        Smallest extent of the platform solid (m); default 2 % of the frame.
-    colorbar, legend : bool
-        Draw the tension colour bar and the legend (drawing points, and slack,
-        infeasible and out-of-bounds cables where there are some).
-    title : str, optional
-        Default: the robot, the model and the pose; ``""`` for none.
-    figsize : (float, float)
-        Size of a new figure (inches).
-    **solve
-        ``wrench``, ``objective``, ``backend`` and solver options for the default
-        tensions (:func:`catenary.viz.robot_scenes`).
+        The vertical axis drawn ``z_scale`` times its true scale (ticks in metres), to
+        show the sag of long flat robots.
+    **options
+        :class:`~catenary.viz.ViewOptions`: ``samples``, ``cmap``, ``tension_range``,
+        ``platform_size``, ``colorbar``, ``legend``, ``title``, ``figsize``, and
+        ``wrench``, ``objective``, ``backend``, ``solver_options`` of the solve.
 
     Returns
     -------
     matplotlib.figure.Figure or plotly.graph_objects.Figure
-        One line per cable (matplotlib ``gid`` ``"cable <i>"``; plotly trace name
-        ``"cable <i+1>"``).
+        One line per cable: matplotlib ``gid`` ``"cable <i>"``, plotly trace
+        ``"cable <i+1>"``.
 
     Raises
     ------
     InvalidCableError
-        For an unknown model, engine or view, axes of the wrong kind, or tensions of
-        the wrong shape or sign.
+        For an unknown model, engine, view or option, axes of the wrong kind, or
+        tensions of the wrong shape or sign.
     OptionalDependencyError
-        For ``engine="plotly"`` without plotly installed.
+        For ``engine="plotly"`` without plotly.
 
     Examples
     --------
     >>> import tension_opt as to
-    >>> from catenary.viz import plot_robot
-    >>> fig = plot_robot(to.presets.algae_harvester(), [0.0, 0.0, 2.0], model="coupled",
-    ...                  reference="straight", z_scale=4)
+    >>> fig = plot_robot(to.presets.algae_harvester(), [0.0, 0.0, 2.0], reference="straight")
     >>> len([a for a in fig.axes[0].lines if str(a.get_gid()).startswith("cable")])
     4
     """
-    check_robot(robot)
-    check_model(model)
     if engine not in ENGINES:
         raise InvalidCableError(f'engine must be "matplotlib" or "plotly"; got engine={engine!r}')
+    if engine == "plotly" and ax is not None:
+        raise InvalidCableError('engine="plotly" draws its own figure: pass ax=None')
+    scene, other, view, z_scale, opts = _scenes(
+        robot, pose, tensions, model, reference, view, z_scale, dict(options)
+    )
+    if engine == "matplotlib":
+        return _matplotlib_figure(scene, other, ax, view, z_scale, opts)
+    from .plotly_view import plotly_figure
+
+    return plotly_figure([scene], other, view, z_scale, opts)
+
+
+def _scenes(
+    robot: CableRobot,
+    pose: ArrayLike,
+    tensions: ArrayLike | None,
+    model: ViewModel,
+    reference: ViewModel | None,
+    view: str | None,
+    z_scale: float,
+    options: dict[str, Any],
+) -> tuple[RobotScene, RobotScene | None, str, float, dict[str, Any]]:
+    """The checked arguments of :func:`plot_robot`: its scene, the reference model's, the
+    view, ``z_scale`` and the resolved options (the default title set)."""
+    check_robot(robot)
+    check_model(model)
     if reference is not None:
         check_model(reference)
     view = check_view(view, robot)
     z_scale = check_positive_number("z_scale", z_scale)
-    scene = robot_scene(robot, pose, tensions, model, samples=samples, **solve)
+    opts = resolve(options)
+    solve = solve_options(opts)
+    scene = robot_scene(robot, pose, tensions, model, samples=opts["samples"], **solve)
     other = (
         None
         if reference is None
-        else robot_scene(robot, pose, None, reference, samples=samples, **solve)
+        else robot_scene(robot, pose, None, reference, samples=opts["samples"], **solve)
     )
-    if title is None:
-        title = f"{robot.name}: {model} cables\n{pose_label(robot, scene.pose)}"
-    if engine == "plotly":
-        if ax is not None:
-            raise InvalidCableError('engine="plotly" draws its own figure: pass ax=None')
-        from .plotly_view import plotly_figure
-
-        return plotly_figure(
-            [scene],
-            other,
-            view=view,
-            z_scale=z_scale,
-            cmap=cmap,
-            tension_range=tension_range,
-            platform_size=platform_size,
-            title=title,
-        )
-    return _matplotlib_figure(
-        scene,
-        other,
-        ax,
-        view=view,
-        z_scale=z_scale,
-        cmap=cmap,
-        tension_range=tension_range,
-        platform_size=platform_size,
-        colorbar=colorbar,
-        legend=legend,
-        title=title,
-        figsize=figsize,
-    )
+    if opts["title"] is None:
+        opts["title"] = f"{robot.name}: {model} cables\n{pose_label(robot, scene.pose)}"
+    return scene, other, view, z_scale, opts
 
 
 def _matplotlib_figure(
     scene: RobotScene,
     other: RobotScene | None,
     ax: Any,
-    *,
     view: str,
     z_scale: float,
-    cmap: Any,
-    tension_range: ArrayLike | None,
-    platform_size: float | None,
-    colorbar: bool,
-    legend: bool,
-    title: str,
-    figsize: tuple[float, float],
+    opts: dict[str, Any],
 ) -> Figure:
-    """:func:`plot_robot` on matplotlib axes."""
+    """:func:`plot_robot` on matplotlib axes (``opts`` the resolved options)."""
     from matplotlib.cm import ScalarMappable
 
     if ax is None:
-        ax = new_axes(view, figsize)
+        ax = new_axes(view, opts["figsize"])
     else:
         check_axes(ax, view)
-    colours = colour_map(cmap)
-    norm = tension_norm([scene], tension_range)
-    draw_scene(ax, scene, view, norm, colours, platform_size=platform_size, reference=other)
+    colours = colour_map(opts["cmap"])
+    norm = tension_norm([scene], opts["tension_range"])
+    draw_scene(ax, scene, view, norm, colours, platform_size=opts["platform_size"], reference=other)
     set_limits(ax, [scene] if other is None else [scene, other], view, z_scale)
     fig = ax.figure
-    if colorbar:
+    if opts["colorbar"]:
         fig.colorbar(
             ScalarMappable(norm=norm, cmap=colours),
             ax=ax,
@@ -246,8 +210,8 @@ def _matplotlib_figure(
             pad=0.12 if view == "3d" else 0.04,
             label="tension at the drawing point (N)",
         )
-    if legend:
+    if opts["legend"]:
         state_legend(ax, [scene], other.model if other is not None else None)
-    if title:
-        ax.set_title(title, fontsize="medium")
+    if opts["title"]:
+        ax.set_title(opts["title"], fontsize="medium")
     return fig
