@@ -70,16 +70,16 @@ from .robot_stiffness import StiffnessResult, platform_stiffness, stiffness_anal
 from .solve import ForcesResult, LengthResult, solve_forces, solve_length
 from .stiffness_maps import StiffnessMap, plot_stiffness_map, stiffness_map
 from .timing import SagTimingResult, time_optimal_sag
-from .viz import (
-    RobotScene,
-    ViewOptions,
-    animate,
-    animation_figure,
-    plot_compliance,
-    plot_robot,
-    plot_workspace,
-    robot_scene,
-)
+
+# The robot views: importable from here, documented under catenary.viz (not in __all__).
+from .viz import RobotScene as RobotScene
+from .viz import ViewOptions as ViewOptions
+from .viz import animate as animate
+from .viz import animation_figure as animation_figure
+from .viz import plot_compliance as plot_compliance
+from .viz import plot_robot as plot_robot
+from .viz import plot_workspace as plot_workspace
+from .viz import robot_scene as robot_scene
 from .workspace import SagWorkspaceResult, sag_workspace
 
 __all__ = [
@@ -91,15 +91,11 @@ __all__ = [
     "InvalidCableError",
     "InverseKinematicsResult",
     "LengthResult",
-    "RobotScene",
     "SagTimingResult",
     "SagWorkspaceResult",
     "StiffnessMap",
     "StiffnessResult",
     "VibrationModes",
-    "ViewOptions",
-    "animate",
-    "animation_figure",
     "breaking_load",
     "cable_properties",
     "coupled_margin",
@@ -113,12 +109,8 @@ __all__ = [
     "material_names",
     "natural_frequencies",
     "platform_stiffness",
-    "plot_compliance",
-    "plot_robot",
     "plot_stiffness_map",
-    "plot_workspace",
     "profile",
-    "robot_scene",
     "sag_workspace",
     "solve_forces",
     "solve_length",

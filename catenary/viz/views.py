@@ -178,7 +178,8 @@ def _scenes(
         else robot_scene(robot, pose, None, reference, samples=opts["samples"], **solve)
     )
     if opts["title"] is None:
-        opts["title"] = f"{robot.name}: {model} cables\n{pose_label(robot, scene.pose)}"
+        shown = model if robot.cable is not None else "straight (no cable properties)"
+        opts["title"] = f"{robot.name}: {shown} cables\n{pose_label(robot, scene.pose)}"
     return scene, other, view, z_scale, opts
 
 

@@ -338,6 +338,16 @@ def test_gif_of_thirty_frames_in_seconds(study, tmp_path):
     assert took < 8.0, f"30 frames took {took:.1f} s"
 
 
+def test_mp4_needs_ffmpeg_and_says_so(study, tmp_path, monkeypatch):
+    from matplotlib import animation
+
+    monkeypatch.setattr(animation.writers, "is_available", lambda name: False)
+    with pytest.raises(OptionalDependencyError, match="ffmpeg"):
+        animate(
+            study, np.linspace([-3.0, -4.0, 1.0], [3.0, 4.0, 2.0], 3), tmp_path / "a.mp4", samples=5
+        )
+
+
 def test_animation_frame_moves_along_the_path(study):
     path = np.linspace([-3.0, -4.0, 1.0], [3.0, 4.0, 2.0], 7)
     fig = animation_figure(study, path, 3, frames=None, samples=11)
