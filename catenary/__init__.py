@@ -70,16 +70,18 @@ from .robot_stiffness import StiffnessResult, platform_stiffness, stiffness_anal
 from .solve import ForcesResult, LengthResult, solve_forces, solve_length
 from .stiffness_maps import StiffnessMap, plot_stiffness_map, stiffness_map
 from .timing import SagTimingResult, time_optimal_sag
-
-# The robot views: importable from here, documented under catenary.viz (not in __all__).
-from .viz import RobotScene as RobotScene
-from .viz import ViewOptions as ViewOptions
-from .viz import animate as animate
-from .viz import animation_figure as animation_figure
-from .viz import plot_compliance as plot_compliance
-from .viz import plot_robot as plot_robot
-from .viz import plot_workspace as plot_workspace
-from .viz import robot_scene as robot_scene
+from .viz import (
+    RobotScene,
+    ViewOptions,
+    animate,
+    animation_figure,
+    compliance_ellipsoid,
+    plot_compliance,
+    plot_robot,
+    plot_workspace,
+    robot_scene,
+    robot_scenes,
+)
 from .workspace import SagWorkspaceResult, sag_workspace
 
 __all__ = [
@@ -91,13 +93,18 @@ __all__ = [
     "InvalidCableError",
     "InverseKinematicsResult",
     "LengthResult",
+    "RobotScene",
     "SagTimingResult",
     "SagWorkspaceResult",
     "StiffnessMap",
     "StiffnessResult",
     "VibrationModes",
+    "ViewOptions",
+    "animate",
+    "animation_figure",
     "breaking_load",
     "cable_properties",
+    "compliance_ellipsoid",
     "coupled_margin",
     "deflection",
     "flexibility",
@@ -109,8 +116,13 @@ __all__ = [
     "material_names",
     "natural_frequencies",
     "platform_stiffness",
+    "plot_compliance",
+    "plot_robot",
     "plot_stiffness_map",
+    "plot_workspace",
     "profile",
+    "robot_scene",
+    "robot_scenes",
     "sag_workspace",
     "solve_forces",
     "solve_length",
@@ -127,5 +139,7 @@ __all__ = [
 
 # Before any kernel runs (numba reads its disk cache at a kernel's first call): the
 # caches a source change made stale go, the kernels' imports of tension_opt included.
-compiled_cache.guard("catenary", {"catenary": Path(__file__).parent,
-                                  "tension_opt": Path(compiled_cache.__file__).parent})
+compiled_cache.guard(
+    "catenary",
+    {"catenary": Path(__file__).parent, "tension_opt": Path(compiled_cache.__file__).parent},
+)
