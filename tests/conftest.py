@@ -14,6 +14,39 @@ import tension_opt as to
 DATA = Path(__file__).parent / "data"
 
 
+#: A run of at least this many tests compiles every kernel family first, two families at
+#: a time in fresh processes (``python -m tension_opt warmup``): on two cores that halves
+#: the compile time a fresh machine pays, which the tests would otherwise pay one kernel
+#: at a time. With the kernels in numba's disk cache it costs the processes' start-up.
+WARM_UP_FROM = 300
+
+
+def pytest_collection_finish(session: pytest.Session) -> None:
+    if len(session.items) < WARM_UP_FROM:
+        return
+    import time
+
+    from tension_opt import warmup
+
+    start = time.perf_counter()
+    took = warmup.warm(jobs=2, progress=False)
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    if reporter is not None:
+        reporter.write_line(f"kernels compiled or loaded in {time.perf_counter() - start:.0f} s "
+                            f"({len(took)} families, two processes at a time)")
+
+
+@pytest.fixture(autouse=True)
+def kernels_at_any_size(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Plain calls take their compiled kernels at any batch size, so that the tests of a
+    kernel against its numpy reference run the kernel on small batches too (by default
+    batches under ``COMPILED_MIN`` poses take the numpy path;
+    tests/tension_opt/test_first_call.py tests that rule with its default)."""
+    from tension_opt.kernels import launch
+
+    monkeypatch.setattr(launch, "COMPILED_MIN", 1)
+
+
 @pytest.fixture(scope="session")
 def snapshots() -> list[dict]:
     return json.loads((DATA / "thesis_snapshots.json").read_text())["snapshots"]

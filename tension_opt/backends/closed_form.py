@@ -22,6 +22,7 @@ from tension_opt.backends import lowdim
 from tension_opt.backends.base import Backend, RawResult, SequenceRun
 from tension_opt.backends.lowdim import min_of_max_lines
 from tension_opt.errors import BackendNotAvailableError
+from tension_opt.kernels.launch import compiled_for
 from tension_opt.problem.affine import RANK_TOL, pinv_and_null, solution_set
 from tension_opt.problem.form import StandardForm
 from tension_opt.status import STATUS_DTYPE, Status, status_array
@@ -47,8 +48,10 @@ class ClosedFormBackend(Backend):
         Solve the poses with the compiled kernel
         (:func:`tension_opt.kernels.closed_form.solve_forms`, in parallel over large
         batches), the numpy path answering the poses it hands back (a singular or
-        badly conditioned structure matrix, data near the float range). False: the
-        numpy path alone, the reference the kernel is tested against. The statuses,
+        badly conditioned structure matrix, data near the float range), for batches of
+        :data:`~tension_opt.kernels.launch.COMPILED_MIN` poses or more (smaller ones
+        take the numpy path, which compiles nothing). False: the numpy path alone, the
+        reference the kernel is tested against. The statuses,
         tensions (to rounding), uniqueness and infeasibility are those of the numpy
         path either way.
     """
@@ -86,7 +89,7 @@ class ClosedFormBackend(Backend):
         conditioning allows)."""
         target = accuracy_target(options.get("accuracy"))
         t0 = time.perf_counter()
-        if self.compiled and form.N:
+        if self.compiled and form.N and compiled_for(form.N):
             T, status, unique, infeas = self._solve_compiled(form)
         else:
             T, status, unique, infeas = self._solve_numpy(form)
@@ -95,7 +98,7 @@ class ClosedFormBackend(Backend):
                          accuracy_target=target)
 
     def runs_sequences(self, options: Mapping[str, Any], smoothed: StandardForm) -> bool:
-        return self.compiled
+        return self.compiled and compiled_for(smoothed.N)
 
     def solve_sequence(self, base: StandardForm, smoothing: float, rate: NDArray,
                        last: NDArray, start: int, run: SequenceRun,

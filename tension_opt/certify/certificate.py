@@ -166,8 +166,13 @@ def measures(batch: ScaledBatch, x: NDArray, mult: Multipliers
     scaled solutions ``x`` (N, k) with the multipliers ``mult`` as given (put in their
     cones first, never estimated); NaN where ``x`` has no solution.
 
-    Measured by the compiled kernel :func:`tension_opt.kernels.certificate.batch_measures`;
-    :func:`measures_reference` is its numpy reference."""
+    Measured by the compiled kernel :func:`tension_opt.kernels.certificate.batch_measures`
+    for batches of :data:`~tension_opt.kernels.launch.COMPILED_MIN` poses or more, by its
+    numpy reference :func:`measures_reference` below that."""
+    from tension_opt.kernels.launch import compiled_for
+
+    if not compiled_for(batch.N):
+        return measures_reference(batch, x, mult)
     from tension_opt.kernels.arrays import frozen
     from tension_opt.kernels.certificate import batch_measures
     from tension_opt.kernels.first_use import announce
@@ -228,8 +233,13 @@ def _distances(batch: ScaledBatch, x: NDArray) -> tuple[NDArray, NDArray]:
 def estimate_multipliers(batch: ScaledBatch, x: NDArray) -> Multipliers:
     """Multipliers of ``x`` (N, k) by the cheap dual solve (see the module docstring and
     :func:`estimate_multipliers_reference`), by the compiled kernel
-    :func:`tension_opt.kernels.certificate.batch_estimate`; NaN rows where ``x`` has no
-    solution."""
+    :func:`tension_opt.kernels.certificate.batch_estimate` (by the reference for batches
+    under :data:`~tension_opt.kernels.launch.COMPILED_MIN` poses); NaN rows where ``x``
+    has no solution."""
+    from tension_opt.kernels.launch import compiled_for
+
+    if not compiled_for(batch.N):
+        return estimate_multipliers_reference(batch, x)
     from tension_opt.kernels.arrays import frozen
     from tension_opt.kernels.certificate import batch_estimate
 

@@ -254,7 +254,13 @@ def scaled_batch(form: StandardForm) -> ScaledBatch:
 
 def compiled_scaling(form: StandardForm) -> Scaling:
     """:func:`scaling_reference` by the compiled kernel
-    (:mod:`tension_opt.kernels.scaling`; the method is its reference)."""
+    (:mod:`tension_opt.kernels.scaling`; the method is its reference), for batches of
+    :data:`~tension_opt.kernels.launch.COMPILED_MIN` poses or more (smaller ones by the
+    reference, which compiles nothing)."""
+    from tension_opt.kernels.launch import compiled_for
+
+    if not compiled_for(form.N):
+        return scaling_reference(form)
     from tension_opt.kernels.arrays import frozen
     from tension_opt.kernels.first_use import announce
     from tension_opt.kernels.scaling import batch_scaling

@@ -24,8 +24,20 @@ import threading
 from collections.abc import Callable
 from typing import Any, Protocol, cast
 
-__all__ = ["LOCK", "PARALLEL_MIN", "configured_threads", "entry_point", "parallel_allowed",
-           "run"]
+__all__ = ["COMPILED_MIN", "LOCK", "PARALLEL_MIN", "compiled_for", "configured_threads",
+           "entry_point", "parallel_allowed", "run"]
+
+#: Poses (or problems) from which a plain batch call of ``distribute`` takes its compiled
+#: kernels (geometry, closed form, scaling, certificate); smaller batches take their
+#: numpy references, which compile nothing. numba compiles a kernel on its first call
+#: (30 s for the closed form's and the certificate's on a 2-core machine, once per
+#: installation); below 16 poses the numpy path costs 0.3-1.5 ms more per call, so a
+#: first call on a few poses answers at once. The rule is by size alone, so which path
+#: answers never depends on what happens to be in numba's cache; the two paths give the
+#: same statuses and the same tensions to rounding (each kernel is tested against its
+#: reference). The real-time classes (``Distributor``, ``ThesisIK``, ``CoupledIK``)
+#: are compiled at any size; a loop of one-pose calls belongs there.
+COMPILED_MIN = 16
 
 #: Poses from which a batch runs in parallel. Each launch waits for every worker thread
 #: to be scheduled, which on a busy machine can take a scheduler quantum (milliseconds):
@@ -78,6 +90,12 @@ def parallel_allowed() -> bool:
             allowed = layer != "omp"
         _state["parallel"] = allowed
     return bool(allowed)
+
+
+def compiled_for(count: int) -> bool:
+    """Whether a plain batch call of ``count`` poses takes the compiled kernels
+    (:data:`COMPILED_MIN`)."""
+    return count >= COMPILED_MIN
 
 
 def run(parallel: Callable[..., Any], serial: Callable[..., Any], count: int,

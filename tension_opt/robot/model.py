@@ -421,15 +421,21 @@ class CableRobot:
                     ) -> tuple[NDArray, NDArray]:
         """:meth:`structure_matrices` (N, n, m) and :meth:`required_wrench` (N, n) at
         once, in compiled code (:func:`tension_opt.kernels.geometry.robot_geometry`)
-        where it applies, else by those methods; the same values to rounding and the
+        where it applies (batches of :data:`~tension_opt.kernels.launch.COMPILED_MIN`
+        poses or more), else by those methods; the same values to rounding and the
         same errors."""
         p = self.as_poses(poses)
-        from tension_opt.kernels.first_use import announce
-        from tension_opt.kernels.geometry import robot_geometry  # loads numba when first used
+        from tension_opt.kernels.launch import compiled_for
 
-        announce("robot geometry", robot_geometry)
-        compiled = robot_geometry(self, p, wrench)
-        return compiled or (self.structure_matrices(p), self.required_wrench(p, wrench))
+        if compiled_for(len(p)):
+            from tension_opt.kernels.first_use import announce
+            from tension_opt.kernels.geometry import robot_geometry  # loads numba when used
+
+            announce("robot geometry", robot_geometry)
+            compiled = robot_geometry(self, p, wrench)
+            if compiled:
+                return compiled
+        return self.structure_matrices(p), self.required_wrench(p, wrench)
 
     def forward_kinematics(
         self,

@@ -1,0 +1,99 @@
+"""The size rule of plain calls (tension_opt.kernels.launch.COMPILED_MIN): batches under
+it take the numpy references and compile nothing, with the statuses, uniqueness and
+tensions (to rounding) of the compiled kernels."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import textwrap
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import tension_opt as to
+from tension_opt.kernels import launch
+
+DEFAULT_MIN = 16  # the value in tension_opt.kernels.launch (the conftest sets 1)
+
+
+def test_the_default_rule_is_the_documented_one() -> None:
+    source = open(launch.__file__).read()
+    assert f"COMPILED_MIN = {DEFAULT_MIN}\n" in source
+
+
+def test_small_batches_compile_nothing_in_a_fresh_process() -> None:
+    """With an empty kernel cache, plain calls on fewer than COMPILED_MIN poses (every
+    closed-form objective, a 6-DOF robot, a smoothed sequence) start no compilation."""
+    script = textwrap.dedent("""
+        import numpy as np
+        from numba.core import event
+        import tension_opt as to
+
+        compiled = []
+
+        class Count(event.Listener):
+            def on_start(self, ev):
+                compiled.append(ev.data["dispatcher"].py_func.__qualname__)
+
+            def on_end(self, ev):
+                pass
+
+        event.register("numba:compile", Count())
+        rng = np.random.default_rng(0)
+        study, cogiro = to.presets.algae_harvester(), to.presets.cogiro()
+        P = np.column_stack([rng.uniform(-30, 30, 15), rng.uniform(-20, 20, 15),
+                             np.full(15, 0.5)])
+        H = np.zeros((15, 6))
+        H[:, :3] = rng.uniform(-0.5, 0.5, (15, 3))
+        for objective in ("min_sum", "min_norm", "min_max"):
+            to.distribute(study, P, objective)
+        to.distribute(cogiro, H, "min_norm")
+        to.distribute(study, P, to.TensionProblem("min_sum", smoothing=1e-3))
+        print("compiled:", compiled)
+    """)
+    env = dict(os.environ, NUMBA_CACHE_DIR=tempfile.mkdtemp())
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          env=env, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "compiled: []" in done.stdout, done.stdout[-3000:]
+
+
+def _poses(robot: to.CableRobot, count: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    if robot.dof == 6:
+        poses = np.zeros((count, 6))
+        poses[:, :3] = rng.uniform(-1.5, 1.5, (count, 3))  # some beyond the workspace
+        poses[:, 3:] = rng.uniform(-0.3, 0.3, (count, 3))
+        return poses
+    return np.column_stack([rng.uniform(-45, 45, count), rng.uniform(-30, 30, count),
+                            rng.uniform(-1, 8, count)])
+
+
+@settings(max_examples=12, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), count=st.integers(1, DEFAULT_MIN - 1),
+       case=st.sampled_from([("algae_harvester", "min_sum"), ("algae_harvester", "min_norm"),
+                             ("algae_harvester", "min_max"), ("cogiro", "min_norm"),
+                             ("cogiro", "min_sum")]))
+def test_numpy_path_of_small_batches_answers_as_the_kernels(seed: int, count: int,
+                                                             case: tuple[str, str]) -> None:
+    robot_name, objective = case
+    robot = getattr(to.presets, robot_name)()
+    poses = _poses(robot, count, seed)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(launch, "COMPILED_MIN", DEFAULT_MIN)
+        small = to.distribute(robot, poses, objective)
+        assert small.backend == "closed_form"
+    compiled = to.distribute(robot, poses, objective)  # the conftest's rule: compiled
+    assert list(small.status) == list(compiled.status)
+    assert (small.unique == compiled.unique).all()
+    solved = np.isfinite(compiled.tensions).all(axis=1)
+    scale = np.abs(compiled.tensions[solved]).max(initial=1.0)
+    np.testing.assert_allclose(small.tensions[solved], compiled.tensions[solved],
+                               rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(small.primal_residual, compiled.primal_residual,
+                               rtol=0, atol=1e-9)
