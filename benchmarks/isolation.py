@@ -102,55 +102,21 @@ def _worker_loop(conn: Any, cells: Sequence[Cell], time_limit: float, run: CellR
 
 
 def load_compiled_kernels() -> None:
-    """Load the compiled kernels of the plain calls into this process, once (compiling
-    them first where numba's disk cache is empty: tens of seconds).
+    """Load the compiled kernels of every warm-up family
+    (:data:`tension_opt.warmup.FAMILIES`, the installed plugins' too) into this process,
+    once (compiling them first where numba's disk cache is empty: tens of seconds; the
+    main job runs ``python -m tension_opt warmup``'s parallel compile before).
 
     Forked workers inherit them; a worker that had to compile them itself would spend
-    a cell's time limit on it. The calls run the serial kernels only, so no threading
+    a cell's time limit on it. The families run serial kernels only, so no threading
     layer starts in the parent (one that did would not survive the fork: see
     :mod:`tension_opt.kernels.launch`).
     """
     if _LOADED:
         return
-    import numpy as np
+    from tension_opt import warmup
 
-    import catenary
-    import tension_opt as to
-    from tension_opt.distribution.entry import CHUNK_SIZE
-
-    available = set(to.available_backends())
-    for robot in (to.presets.algae_harvester(), to.presets.cogiro()):
-        home = robot.default_home()
-        # The closed form takes min-max with one null-space dimension only.
-        for objective in ("min_sum", "min_norm", "min_max")[:3 if robot.m - robot.dof == 1
-                                                            else 2]:
-            to.distribute(robot, home, objective, "closed_form")
-            to.Distributor(robot, objective)(home)
-        # A batch of more than one chunk: the certified pass of tension_opt.distribution.certified.
-        many = np.repeat(home[None], CHUNK_SIZE + 1, axis=0)
-        to.distribute(robot, many, "min_sum", "closed_form")
-        # A smoothed sequence's compiled loops (one compilation serves every robot).
-        smoothed = to.TensionProblem("min_sum", smoothing=1e-3)
-        to.distribute(robot, np.stack([home, home]), smoothed, "closed_form")
-        catenary.inverse_kinematics(robot, home, model="thesis")
-        # The generic backends' scaling and certificate kernels (and DAQP's C path).
-        generic: list[str] = [b for b in ("scipy:highs", "qpsolvers:daqp") if b in available]
-        for backend in generic:
-            to.distribute(robot, home, "min_sum", backend)
-        if "qpsolvers:daqp" in available:
-            to.Distributor(robot, "min_norm", "qpsolvers:daqp")(home)
-            to.distribute(robot, np.stack([home, home]), smoothed, "qpsolvers:daqp")
-        # The other qpsolvers' sequence loop (its compiled QP and verdict).
-        other = [b for b in ("qpsolvers:piqp", "qpsolvers:osqp", "qpsolvers:clarabel")
-                 if b in available][:1]
-        for backend in other:
-            to.distribute(robot, np.stack([home, home]), smoothed, backend)
-    for end in ("B", "A"):
-        catenary.solve_length(10.0, -2.0, 500.0, 2.0, EA=1e6, end=end)
-        # Vectors with numbers for w and EA: the kernel's variant for a robot's cables.
-        catenary.solve_length(np.array([10.0]), np.array([-2.0]), np.array([500.0]), 2.0,
-                              EA=1e6, end=end)
-    catenary.solve_forces(10.0, -2.0, 10.5, 2.0, EA=1e6)
+    warmup.warm(jobs=1, progress=False)
     _LOADED.append(True)
 
 

@@ -32,6 +32,12 @@ __all__ = ["FAMILIES", "PLUGINS", "register", "warm", "warm_family"]
 PLUGINS: tuple[str, ...] = ("catenary",)
 
 
+#: Poses of a family's batch calls: a plain call on fewer than
+#: :data:`~tension_opt.kernels.launch.COMPILED_MIN` takes the numpy path and would
+#: compile nothing.
+_BATCH = 64
+
+
 def _study_poses(count: int) -> np.ndarray:
     rng = np.random.default_rng(0)
     return np.column_stack([rng.uniform(-30, 30, count), rng.uniform(-20, 20, count),
@@ -48,8 +54,8 @@ def _spatial_poses(count: int) -> np.ndarray:
 def _geometry() -> None:
     from tension_opt.robot import presets
 
-    for robot, poses in ((presets.algae_harvester(), _study_poses(8)),
-                         (presets.cogiro(), _spatial_poses(8))):
+    for robot, poses in ((presets.algae_harvester(), _study_poses(_BATCH)),
+                         (presets.cogiro(), _spatial_poses(_BATCH))):
         robot.equilibrium(poses)
 
 
@@ -59,10 +65,10 @@ def _closed_form() -> None:
     from tension_opt.robot import presets
 
     study, cogiro = presets.algae_harvester(), presets.cogiro()
-    distribute(study, _study_poses(8), "min_sum", "closed_form")
-    distribute(cogiro, _spatial_poses(8), "min_norm", "closed_form")
+    distribute(study, _study_poses(_BATCH), "min_sum", "closed_form")
+    distribute(cogiro, _spatial_poses(_BATCH), "min_norm", "closed_form")
     smoothed = TensionProblem("min_norm", smoothing=1.0)
-    distribute(study, _study_poses(8), smoothed, "closed_form")
+    distribute(study, _study_poses(_BATCH), smoothed, "closed_form")
 
 
 def _certified_pass() -> None:
@@ -88,11 +94,20 @@ def _generic_backends() -> None:
     from tension_opt.problem.form import TensionProblem
     from tension_opt.robot import presets
 
-    study = presets.algae_harvester()
-    backend = "qpsolvers:daqp" if "qpsolvers:daqp" in available_backends() else "auto"
+    study, poses = presets.algae_harvester(), _study_poses(_BATCH)
+    installed = set(available_backends())
+    backend = "qpsolvers:daqp" if "qpsolvers:daqp" in installed else "auto"
     # The scaling and certificate kernels of every generic solve, and DAQP's own.
-    distribute(study, _study_poses(8), "min_norm", backend)
-    distribute(study, _study_poses(8), TensionProblem("min_norm", smoothing=1.0), backend)
+    distribute(study, poses, "min_norm", backend)
+    smoothed = TensionProblem("min_norm", smoothing=1.0)
+    distribute(study, poses, smoothed, backend)
+    if "scipy:highs" in installed:
+        distribute(study, poses, "min_sum", "scipy:highs")
+    # The other qpsolvers' sequence loop (its compiled QP and verdict), one serves all.
+    other = [b for b in ("qpsolvers:piqp", "qpsolvers:osqp", "qpsolvers:clarabel")
+             if b in installed][:1]
+    for name in other:
+        distribute(study, poses[:2], smoothed, name)
 
 
 #: The toolkit's kernel families, in the order the command line runs them.
