@@ -21,7 +21,6 @@ from tension_opt.dynamics.deadline import Deadline
 from tension_opt.dynamics.intervals import StageChecks
 from tension_opt.dynamics.stage_lp import StageLP
 from tension_opt.dynamics.stage_rows import stage_rows
-from tension_opt.kernels import reachability as kernel
 from tension_opt.status import Status, status_array
 
 __all__ = ["CHUNK", "controllable_sets", "failed_points", "forward_pass", "polish",
@@ -90,6 +89,7 @@ class _Compiled:
 
     def sets(self) -> tuple[NDArray, int | None, str]:
         """As :func:`controllable_sets`."""
+        from tension_opt.kernels import reachability as kernel  # loads numba
         r, K = self.rows, self.grid.size
         sets = np.full((K, 2), np.nan)
         k = K - 1
@@ -107,6 +107,7 @@ class _Compiled:
     def forward(self, sets: NDArray, cap: NDArray | None = None
                 ) -> tuple[NDArray, NDArray, str]:
         """As :func:`forward_pass`."""
+        from tension_opt.kernels import reachability as kernel  # loads numba
         r, K = self.rows, self.grid.size
         top = sets[:, 1] if cap is None else np.minimum(sets[:, 1],
                                                         np.maximum(cap, sets[:, 0]))
@@ -188,6 +189,7 @@ def failed_points(checks: StageChecks, v_max: NDArray, a_max: NDArray, outcome: 
                   deadline: Deadline | None = None, compiled: bool = False) -> NDArray:
     """Per-point status of a path without a timing: ``INFEASIBLE`` where no ``(u, x)``
     at all is feasible, the rest ``NOT_RUN`` (``UNBOUNDED`` everywhere if unbounded)."""
+    from tension_opt.kernels import reachability as kernel  # loads numba
     if outcome == "unbounded":
         return status_array(checks.K, Status.UNBOUNDED)
     status = status_array(checks.K, Status.NOT_RUN)

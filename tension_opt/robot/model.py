@@ -36,6 +36,8 @@ from tension_opt.checks import (
     per_cable,
 )
 from tension_opt.errors import InvalidInputError
+from tension_opt.kernels.first_use import announce
+from tension_opt.kernels.launch import compiled_for
 from tension_opt.kinds import MotionPattern, get_kind
 from tension_opt.status import STATUS_DTYPE, Status
 
@@ -420,20 +422,15 @@ class CableRobot:
     def equilibrium(self, poses: ArrayLike, wrench: ArrayLike | None = None
                     ) -> tuple[NDArray, NDArray]:
         """:meth:`structure_matrices` (N, n, m) and :meth:`required_wrench` (N, n) at
-        once, in compiled code (:func:`tension_opt.kernels.geometry.robot_geometry`)
-        where it applies (batches of :data:`~tension_opt.kernels.launch.COMPILED_MIN`
-        poses or more), else by those methods; the same values to rounding and the
-        same errors."""
+        once, in compiled code (:func:`tension_opt.kernels.geometry.robot_geometry`) where
+        it applies to a batch of :data:`~tension_opt.kernels.launch.COMPILED_MIN` poses or
+        more, else by those methods; the same values to rounding and the same errors."""
         p = self.as_poses(poses)
-        from tension_opt.kernels.launch import compiled_for
-
         if compiled_for(len(p)):
-            from tension_opt.kernels.first_use import announce
             from tension_opt.kernels.geometry import robot_geometry  # loads numba when used
 
             announce("robot geometry", robot_geometry)
-            compiled = robot_geometry(self, p, wrench)
-            if compiled:
+            if compiled := robot_geometry(self, p, wrench):
                 return compiled
         return self.structure_matrices(p), self.required_wrench(p, wrench)
 
