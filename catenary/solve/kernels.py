@@ -43,8 +43,8 @@ from .kernels_spans import (
     hypot,
     nanmax,
     power_of_two,
-    spans,
-    spans_flex,
+    spans_call,
+    spans_flex_call,
     spans_one,
     valid,
 )
@@ -63,7 +63,7 @@ CONVERGED, FALLBACK, INVALID, INFEASIBLE = 0, 1, 2, 3
 PARALLEL_FROM = 2048
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _initial(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float
              ) -> tuple[float, float, float]:
     """Near-straight guess ``(p, q, L0)`` (``_initial_length`` of
@@ -94,7 +94,7 @@ _NEWTON = -1
 _BLOCK = 256
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _newton_length(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float,
                    rtol: float, max_iter: int
                    ) -> tuple[float, float, float, bool, int, bool]:
@@ -106,7 +106,7 @@ def _newton_length(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: f
     return _newton_from(at_b, x, z, T, w, inv_EA, p, q, l0, rtol, max_iter)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _newton_from(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float,
                  p: float, q: float, l0: float, rtol: float, max_iter: int
                  ) -> tuple[float, float, float, bool, int, bool]:
@@ -119,7 +119,7 @@ def _newton_from(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: flo
     return p, q, l0, False, max_iter, True
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _newton_step(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float,
                  p: float, q: float, l0: float, rtol: float, tol: float
                  ) -> tuple[float, float, float, int]:
@@ -129,7 +129,7 @@ def _newton_step(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: flo
     h = T * p
     v = T * q if at_b else T * q + w * l0
     va = v - w * l0 if at_b else T * q
-    xs, zs, fxx, fxz, fzz, ta, tb, regular = spans_flex(h, v, l0, w, inv_EA, True)
+    xs, zs, fxx, fxz, fzz, ta, tb, regular = spans_flex_call(h, v, l0, w, inv_EA, True)
     if not regular:
         return p, q, l0, _IRREGULAR
     rx, rz = xs - x, zs - z
@@ -195,7 +195,7 @@ def _length_values(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: f
                           regular, decide, rtol, max_iter)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _length_start(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float,
                   decide: bool) -> tuple[int, float, float, float, float, float, float,
                                          float, bool]:
@@ -250,7 +250,7 @@ def _length_finish(at_b: bool, xs: float, zs: float, Ts: float, ws: float, ies: 
     return CONVERGED, H, V_B, V_A, l0, its
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _certified(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float,
                H: float, V_B: float, V_A: float, L0: float) -> bool:
     """The certificate of ``_certify_length`` (:mod:`catenary.solve.length`), in the
@@ -261,7 +261,7 @@ def _certified(at_b: bool, x: float, z: float, T: float, w: float, inv_EA: float
     if not (math.isfinite(H) and math.isfinite(V_B) and math.isfinite(L0) and H >= 0
             and L0 > 0):
         return False
-    xs, zs = spans(H, V_B, L0, w, inv_EA, True)[:2]
+    xs, zs = spans_call(H, V_B, L0, w, inv_EA, True)[:2]
     tol = RES_TOL * hypot(x, z)
     return abs(xs - x) <= tol and abs(zs - z) <= tol
 
@@ -448,7 +448,7 @@ def _newton_forces(x: float, z: float, L0: float, w: float, inv_EA: float, H: fl
     its = 0
     tol = RES_TOL * math.hypot(x, z)
     for _ in range(max_iter):
-        xs, zs, fxx, fxz, fzz, _, _, regular = spans_one(H, V, L0, w, inv_EA)
+        xs, zs, fxx, fxz, fzz, _, _, regular = spans_flex_call(H, V, L0, w, inv_EA, False)
         if not regular:
             return H, V, False, -1
         rx, rz = xs - x, zs - z
@@ -515,7 +515,7 @@ def _forces_values(x: float, z: float, L0: float, w: float, inv_EA: float, rtol:
     H, V = H * F, V * F
     if not (math.isfinite(H) and math.isfinite(V) and H >= 0.0):
         return FALLBACK, nan, nan, its
-    xc, zc = spans(H, V, L0, w, inv_EA, False)[:2]
+    xc, zc = spans_call(H, V, L0, w, inv_EA, False)[:2]
     tol = RES_TOL * c
     if not (abs(xc - x) <= tol and abs(zc - z) <= tol):
         return FALLBACK, nan, nan, its

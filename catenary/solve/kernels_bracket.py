@@ -102,7 +102,7 @@ HEAVY, STRETCHY, NEARLY_LEVEL = 30.0, 100.0, 1e-6
 BAND = 0.87
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def far_tension(T: float, wh: float, inv_EA: float) -> float:
     """Tension at the far end of any cable with tension ``T`` at the near end.
 
@@ -119,7 +119,7 @@ def far_tension(T: float, wh: float, inv_EA: float) -> float:
     return T + 2.0 * wh / (a + math.sqrt(disc))
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def span_bound(T_lo: float, T_hi: float, inv_EA: float) -> float:
     """Upper bound (N) of ``w x`` over the cables with end tensions ``T_lo <= T_hi``:
     the four terms of ``phi`` maximised apart, no iteration (module notes)."""
@@ -135,7 +135,7 @@ def span_bound(T_lo: float, T_hi: float, inv_EA: float) -> float:
     return bound * (1.0 + _ROUND)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _angles(t: float, T_lo: float, T_hi: float
             ) -> tuple[float, float, float, float, float, float]:
     """``(H, sinh t, sinh beta, beta - t, sinh beta - sinh t, sinh beta - rho sinh t)``
@@ -152,7 +152,7 @@ def _angles(t: float, T_lo: float, T_hi: float
     return H, s, sb, math.asinh(sb) - t, sb - s, sb - rho * s
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _phi(t: float, T_lo: float, T_hi: float, inv_EA: float) -> tuple[float, float, float]:
     """``(phi, phi', d(phi')/d|t|)`` at ``H = T_lo / cosh t`` (module notes): the span
     ``w x`` of the member with low-end angle ``-|t|`` and its derivatives in ``H``."""
@@ -255,7 +255,7 @@ def taut_member(T_lo: float, T_hi: float, inv_EA: float, wx: float, t_star: floa
     return H, t, sb, gap, found and math.isfinite(H) and H > 0.0 and gap > 0.0
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _log_span(t: float, T_lo: float, T_hi: float, inv_EA: float, wx: float
               ) -> tuple[float, float]:
     """``log(w x(t) / wx)`` and its ``t``-derivative (negative on the taut side)."""

@@ -19,7 +19,8 @@ from numpy.typing import NDArray
 
 __all__ = ["ASINH_LARGE", "EPS", "RES_TOL", "SAFE_HIGH", "SAFE_LOW", "SERIES_CUT", "T_TOL",
            "asinh_fast", "asinh_series", "at", "clip", "g_series", "hypot", "log_fast",
-           "nanmax", "power_of_two", "spans", "spans_flex", "spans_one", "square", "valid"]
+           "nanmax", "power_of_two", "spans", "spans_call", "spans_flex", "spans_flex_call",
+           "spans_one", "square", "valid"]
 
 RES_TOL = 1e-8
 EPS = float(np.finfo(np.float64).eps)
@@ -272,6 +273,14 @@ def spans_flex(H: float, V_B: float, L0: float, w: float, inv_EA: float, fast: b
         F_zz = H2 * Lrho / TT
     base = L0 * inv_EA
     return x, z, base + F_xx, F_xz, base + F_zz, T_A, T_B, regular
+
+
+#: :func:`spans` and :func:`spans_flex` as called functions, each compiled once, for the
+#: scalar solves (:mod:`catenary.solve.kernels`): inlined at each of their call sites
+#: there, they took 35 of the 45 s the first ``solve_length`` spent compiling, for no
+#: measured gain. The side-by-side lanes and the coupled model's kernels inline theirs.
+spans_call = njit(cache=True, error_model="numpy")(spans.py_func)
+spans_flex_call = njit(cache=True, error_model="numpy")(spans_flex.py_func)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
