@@ -353,7 +353,8 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
         # the work for a cable).
         out, ints = np.empty((4, n)), np.empty((2, n), dtype=np.int64)
         args = (end == "B", x, z, tension, w, EA, float(rtol), int(max_iter), out, ints)
-        unsettled = serial_entry(_VECTORS_AND_NUMBERS, args)(*args)
+        key = _VECTORS_AND_NUMBERS if n >= ONE_AT_A_TIME_BELOW else _SCALAR_NUMBERS
+        unsettled = serial_entry(key, args)(*args)
         if not unsettled:
             result = object.__new__(LengthResult)  # field by field: see new_result
             fields = result.__dict__
@@ -371,8 +372,9 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
             return None
         shape, n, (xf, zf, tf, wf, ef) = flat
         out, ints = np.empty((4, n)), np.empty((2, n), dtype=np.int64)
-        unsettled = run_cables("solve_length_cables", n, end == "B", xf, zf, tf, wf, ef,
-                               float(rtol), int(max_iter), out, ints)
+        name = "solve_length_cables" if n >= ONE_AT_A_TIME_BELOW else "solve_length_cables_scalar"
+        unsettled = run_cables(name, n, end == "B", xf, zf, tf, wf, ef, float(rtol),
+                               int(max_iter), out, ints)
     if unsettled:
         kernels = load_kernels()
         codes = ints[0]
@@ -405,6 +407,13 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
 
 #: The serial length kernel's variant for float64 vectors and numbers ``w``, ``EA``.
 _VECTORS_AND_NUMBERS = "solve_length_cables:numbers"
+_SCALAR_NUMBERS = "solve_length_cables_scalar:numbers"
+#: Fewer cables than one group of lanes (:data:`catenary.solve.kernels_lanes.LANES`, 8)
+#: are solved one at a time (the serial kernel the lanes are tested against bit for bit,
+#: so the results are the same): as fast for a robot's few cables, and a first call
+#: compiles only the scalar steps (about 8 s on a 2-core machine) and not the lanes
+#: (another 20 s).
+ONE_AT_A_TIME_BELOW = 8
 _F64 = np.dtype(np.float64)
 _ARRAY = np.ndarray
 _ONE_FLOAT = (8,)

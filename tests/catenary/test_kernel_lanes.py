@@ -12,6 +12,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import catenary
 from benchmarks.cable_cases import random_cables
 from catenary.solve import kernels, kernels_lanes
 from catenary.solve.kernels_spans import log_fast, power_of_two
@@ -139,3 +140,24 @@ def test_power_of_two_is_frexps() -> None:
 
     got = np.array([power_of_two(v) for v in a])
     np.testing.assert_array_equal(got, [reference(v) for v in a])
+
+
+@pytest.mark.parametrize("count", [1, 4, 7, 8, 12])
+@pytest.mark.parametrize("numbers", [True, False])
+def test_few_cables_one_at_a_time_give_the_lanes_bits(count: int, numbers: bool,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """Calls of fewer cables than a group of lanes take the one-at-a-time kernel
+    (catenary.solve.length.ONE_AT_A_TIME_BELOW): the same bits as the lanes."""
+    from catenary.solve import length
+    from catenary.solve.kernels_lanes import LANES
+
+    assert length.ONE_AT_A_TIME_BELOW == LANES
+    rng = np.random.default_rng(count)
+    x, z = rng.uniform(0.5, 80.0, count), rng.uniform(-20.0, 20.0, count)
+    T = rng.uniform(10.0, 1e4, count)
+    w, EA = (1.5, 1e6) if numbers else (np.full(count, 1.5), np.full(count, 1e6))
+    ours = catenary.solve_length(x, z, T, w, EA=EA)
+    monkeypatch.setattr(length, "ONE_AT_A_TIME_BELOW", 0)  # every call through the lanes
+    lanes = catenary.solve_length(x, z, T, w, EA=EA)
+    for field in ("H", "V_A", "V_B", "L0", "iterations", "status"):
+        assert np.array_equal(getattr(ours, field), getattr(lanes, field)), field
