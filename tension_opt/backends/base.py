@@ -45,7 +45,7 @@ from tension_opt.backends.settings import (
 )
 from tension_opt.backends.tiebreak import face_min_norm, lp_optimum_is_unique, optimal_face
 from tension_opt.certify.certificate import Certificate, Multipliers, certify
-from tension_opt.certify.scaling import ScaledBatch, scaled_batch
+from tension_opt.certify.scaling import ScaledBatch, narrowed, scaled_batch
 from tension_opt.errors import SolverError
 from tension_opt.problem.form import StandardForm
 from tension_opt.status import STATUS_DTYPE, Status, status_array
@@ -53,6 +53,10 @@ from tension_opt.tolerances import accuracy_target
 
 #: Per-pose solver messages kept in ``extras["errors"]`` (the first ones of a batch).
 MAX_ERRORS = 10
+#: A solution of a problem whose far bounds were lowered
+#: (:func:`tension_opt.certify.scaling.narrowed`) is solved again with the bounds as
+#: given where a lowered bound's tension reaches this share of it.
+NEAR_CAP = 0.5
 
 
 @dataclass
@@ -79,6 +83,32 @@ class RawResult:
     multipliers: Multipliers | None = None
     accuracy_target: float | None = None
     certificate: Certificate | None = None
+
+    def put(self, poses: NDArray, other: RawResult) -> None:
+        """Write ``other``'s answers (of the poses ``poses``, indices) into these: the
+        tensions, statuses and diagnostics, the certificate's rows (else None, to be
+        measured afresh) and the times added."""
+        self.tensions[poses], self.status[poses] = other.tensions, other.status
+        if self.unique is not None:
+            self.unique[poses] = True if other.unique is None else other.unique
+        if self.iterations is not None:
+            self.iterations[poses] = 0 if other.iterations is None else other.iterations
+        if self.infeasibility is not None:
+            self.infeasibility[poses] = (np.nan if other.infeasibility is None
+                                         else other.infeasibility)
+        if self.certificate is not None and other.certificate is not None:
+            self.certificate.put(poses, other.certificate)
+        else:  # measured afresh by the solution
+            self.certificate = None
+            if self.multipliers is not None and other.multipliers is not None:
+                self.multipliers.put(poses, other.multipliers)
+        errors = other.extras.get("errors", {})
+        if errors:
+            mine = self.extras.setdefault("errors", {})
+            for pose, message in errors.items():
+                mine.setdefault(int(poses[int(pose)]), message)
+        self.setup_time += other.setup_time
+        self.solve_time += other.solve_time
 
 
 @dataclass
@@ -131,7 +161,19 @@ class Backend:
             If the solver rejects ``options["solver_options"]``.
         """
         self.check_solver_options(options)
-        raw = honest(self._solve_and_break_ties(form, options))
+        narrow, lowered = narrowed(form)  # far bounds would loosen the certificate
+        raw = honest(self._solve_and_break_ties(narrow, options))
+        if lowered is not None:
+            # Poses whose lowered bound nears activity, or that the narrowed problem
+            # does not solve, are solved again with the bounds as given.
+            cap = narrow.ub
+            with np.errstate(invalid="ignore"):
+                near = (lowered & ~(raw.tensions < NEAR_CAP * cap)).any(axis=1)
+            again = np.flatnonzero(lowered.any(axis=1)
+                                   & (near | (raw.status != Status.OPTIMAL)))
+            if len(again):
+                raw.put(again, honest(self._solve_and_break_ties(form.subset(again),
+                                                                 options)))
         settle_failures(form, raw, MAX_ERRORS)  # a silent failure or impossible verdict
         return raw
 

@@ -210,28 +210,9 @@ def solve_routed(way: Route, form: StandardForm, options: dict[str, Any]) -> Raw
         sub = form.subset(failed)
         if other is None or other.unsupported(sub) is not None:
             continue
-        _merge(raw, failed, other.solve(sub, **options), name)
+        again = other.solve(sub, **options)
+        raw.put(failed, again)
+        answered = failed[again.status != Status.SOLVER_ERROR]
+        if len(answered):
+            raw.extras.setdefault("fallback", {})[name] = answered.tolist()
     return raw
-
-
-def _merge(raw: RawResult, failed: np.ndarray, again: RawResult, name: str) -> None:
-    """Write another backend's answers to poses ``failed`` of ``raw`` into it."""
-    raw.tensions[failed], raw.status[failed] = again.tensions, again.status
-    if raw.unique is not None:
-        raw.unique[failed] = True if again.unique is None else again.unique
-    if raw.iterations is not None:
-        raw.iterations[failed] = 0 if again.iterations is None else again.iterations
-    if raw.infeasibility is not None:
-        raw.infeasibility[failed] = (np.nan if again.infeasibility is None
-                                     else again.infeasibility)
-    if raw.certificate is not None and again.certificate is not None:
-        raw.certificate.put(failed, again.certificate)
-    else:  # measured afresh by the solution
-        raw.certificate = None
-        if raw.multipliers is not None and again.multipliers is not None:
-            raw.multipliers.put(failed, again.multipliers)
-    raw.setup_time += again.setup_time
-    raw.solve_time += again.solve_time
-    answered = failed[again.status != Status.SOLVER_ERROR]
-    if len(answered):
-        raw.extras.setdefault("fallback", {})[name] = answered.tolist()

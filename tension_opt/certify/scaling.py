@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import threading
 import weakref
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,6 +29,7 @@ __all__ = [
     "ScaledBatch",
     "Scaling",
     "compiled_scaling",
+    "narrowed",
     "reference_tension",
     "scaled_batch",
     "scaled_objective",
@@ -68,6 +69,27 @@ class Scaling:
         form's units: a scaled objective is the form's divided by it, shape (N,)."""
         with np.errstate(over="ignore"):
             return self.top * np.where(self.quadratic, self.tension**2, self.tension)
+
+
+def narrowed(form: StandardForm) -> tuple[StandardForm, NDArray | None]:
+    """``form`` with every finite upper bound above ``1 / UB_SHARE`` typical tensions
+    (:meth:`~tension_opt.problem.form.StandardForm.typical_tension`) lowered to that
+    cap, and the mask (N, m) of the bounds lowered (None, and ``form`` itself, where
+    none is).
+
+    A far bound floors the reference tension (:func:`scaling_reference`) and with it
+    the unit of the solvers' tolerances and of the certificate: at ``t_max = 1e12`` N on
+    the study robot an answer 1 % off the optimum met the target. With the cap, the
+    reference is the typical tension at any bound. A solution of the narrowed problem
+    whose lowered bounds are not active is optimal for ``form`` with the same
+    multipliers; the backends solve the others again with the bounds as given
+    (:meth:`tension_opt.backends.base.Backend.solve`)."""
+    cap = form.typical_tension()[:, None] / UB_SHARE
+    with np.errstate(invalid="ignore"):
+        over = np.isfinite(form.ub) & (form.ub > cap)
+    if not over.any():
+        return form, None
+    return replace(form, ub=np.where(over, cap, form.ub)), over
 
 
 def scaling_reference(form: StandardForm) -> Scaling:
