@@ -408,12 +408,13 @@ def _compiled_length(end: str, x: ArrayLike, z: ArrayLike, tension: ArrayLike,
 #: The serial length kernel's variant for float64 vectors and numbers ``w``, ``EA``.
 _VECTORS_AND_NUMBERS = "solve_length_cables:numbers"
 _SCALAR_NUMBERS = "solve_length_cables_scalar:numbers"
-#: Fewer cables than one group of lanes (:data:`catenary.solve.kernels_lanes.LANES`, 8)
-#: are solved one at a time (the serial kernel the lanes are tested against bit for bit,
-#: so the results are the same): as fast for a robot's few cables, and a first call
-#: compiles only the scalar steps (about 8 s on a 2-core machine) and not the lanes
-#: (another 20 s).
-ONE_AT_A_TIME_BELOW = 8
+#: Fewer cables than two groups of lanes (:data:`catenary.solve.kernels_lanes.LANES` is
+#: 8) are solved one at a time (the serial kernel the lanes are tested against bit for
+#: bit, so the results are the same): a first call on a robot's cables (or three poses
+#: of the study robot's four) compiles only the scalar steps (about 8 s on a 2-core
+#: machine) and not the lanes (another 20 s). Per call (one run): 0.88-1.07x the lanes'
+#: time for 1-7 cables, 1.13x for 12, 1.25x for 16 (a microsecond).
+ONE_AT_A_TIME_BELOW = 16
 _F64 = np.dtype(np.float64)
 _ARRAY = np.ndarray
 _ONE_FLOAT = (8,)

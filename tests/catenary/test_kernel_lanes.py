@@ -142,16 +142,16 @@ def test_power_of_two_is_frexps() -> None:
     np.testing.assert_array_equal(got, [reference(v) for v in a])
 
 
-@pytest.mark.parametrize("count", [1, 4, 7, 8, 12])
+@pytest.mark.parametrize("count", [1, 4, 7, 8, 12, 15, 16])
 @pytest.mark.parametrize("numbers", [True, False])
 def test_few_cables_one_at_a_time_give_the_lanes_bits(count: int, numbers: bool,
                                                      monkeypatch: pytest.MonkeyPatch) -> None:
-    """Calls of fewer cables than a group of lanes take the one-at-a-time kernel
+    """Calls of fewer cables than two groups of lanes take the one-at-a-time kernel
     (catenary.solve.length.ONE_AT_A_TIME_BELOW): the same bits as the lanes."""
     from catenary.solve import length
     from catenary.solve.kernels_lanes import LANES
 
-    assert length.ONE_AT_A_TIME_BELOW == LANES
+    assert length.ONE_AT_A_TIME_BELOW == 2 * LANES
     rng = np.random.default_rng(count)
     x, z = rng.uniform(0.5, 80.0, count), rng.uniform(-20.0, 20.0, count)
     T = rng.uniform(10.0, 1e4, count)
