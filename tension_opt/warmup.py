@@ -110,6 +110,16 @@ def _generic_backends() -> None:
         distribute(study, poses[:2], smoothed, name)
 
 
+def _timing() -> None:
+    from tension_opt.dynamics.timing import time_optimal
+    from tension_opt.robot import presets
+
+    # The compiled reachability passes and the facets of the checks between grid points.
+    path = np.array([[-20.0, -10.0, 1.0], [0.0, 0.0, 3.0], [20.0, 10.0, 1.0]])
+    time_optimal(presets.algae_harvester(t_max=15e3), path, gridpoints=_BATCH,
+                 method="reachability")
+
+
 #: The toolkit's kernel families, in the order the command line runs them.
 FAMILIES: dict[str, Callable[[], None]] = {
     "robot geometry": _geometry,
@@ -117,6 +127,7 @@ FAMILIES: dict[str, Callable[[], None]] = {
     "certified pass": _certified_pass,
     "real-time distributor": _distributor,
     "certificate of generic solvers": _generic_backends,
+    "time-optimal timing": _timing,
 }
 
 
