@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import threading
 from collections.abc import Callable
 from pathlib import Path
@@ -10,8 +11,17 @@ from pathlib import Path
 import pytest
 
 import tension_opt as to
+from tension_opt.kernels import launch
 
 DATA = Path(__file__).parent / "data"
+
+# Plain calls take their compiled kernels at any batch size in the tests and in every
+# process they start, so that the tests of a kernel against its numpy reference run the
+# kernel on small batches too, and fixtures of any scope agree to the bit (by default
+# batches under 16 poses take the numpy path; tests/tension_opt/test_first_call.py
+# tests that rule with its default).
+os.environ["TENSION_OPT_COMPILED_MIN"] = "1"
+launch.COMPILED_MIN = 1
 
 
 #: A run of at least this many tests compiles every kernel family first, two families at
@@ -34,17 +44,6 @@ def pytest_collection_finish(session: pytest.Session) -> None:
     if reporter is not None:
         reporter.write_line(f"kernels compiled or loaded in {time.perf_counter() - start:.0f} s "
                             f"({len(took)} families, two processes at a time)")
-
-
-@pytest.fixture(autouse=True)
-def kernels_at_any_size(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Plain calls take their compiled kernels at any batch size, so that the tests of a
-    kernel against its numpy reference run the kernel on small batches too (by default
-    batches under ``COMPILED_MIN`` poses take the numpy path;
-    tests/tension_opt/test_first_call.py tests that rule with its default)."""
-    from tension_opt.kernels import launch
-
-    monkeypatch.setattr(launch, "COMPILED_MIN", 1)
 
 
 @pytest.fixture(scope="session")

@@ -24,8 +24,9 @@ import threading
 from collections.abc import Callable
 from typing import Any, Protocol, cast
 
-__all__ = ["COMPILED_MIN", "LOCK", "PARALLEL_MIN", "compiled_for", "configured_threads",
-           "entry_point", "parallel_allowed", "run"]
+__all__ = ["COMPILED_MIN", "DEFAULT_COMPILED_MIN", "LOCK", "PARALLEL_MIN", "compiled_for",
+           "compiled_min_from_environment", "configured_threads", "entry_point",
+           "parallel_allowed", "run"]
 
 #: Poses (or problems) from which a plain batch call of ``distribute`` takes its compiled
 #: kernels (geometry, closed form, scaling, certificate); smaller batches take their
@@ -36,8 +37,38 @@ __all__ = ["COMPILED_MIN", "LOCK", "PARALLEL_MIN", "compiled_for", "configured_t
 #: answers never depends on what happens to be in numba's cache; the two paths give the
 #: same statuses and the same tensions to rounding (each kernel is tested against its
 #: reference). The real-time classes (``Distributor``, ``ThesisIK``, ``CoupledIK``)
-#: are compiled at any size; a loop of one-pose calls belongs there.
-COMPILED_MIN = 16
+#: are compiled at any size; a loop of one-pose calls belongs there. The environment
+#: variable ``TENSION_OPT_COMPILED_MIN`` sets another size when the package is imported
+#: (1: the kernels at every size; the tests run so, and the processes they start).
+DEFAULT_COMPILED_MIN = 16
+
+
+def compiled_min_from_environment() -> int:
+    """:data:`COMPILED_MIN` as ``TENSION_OPT_COMPILED_MIN`` sets it (default 16).
+
+    Raises
+    ------
+    InvalidInputError
+        If the variable is set to anything but a whole number >= 0.
+    """
+    text = os.environ.get("TENSION_OPT_COMPILED_MIN", "").strip()
+    if not text:
+        return DEFAULT_COMPILED_MIN
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        from tension_opt.errors import InvalidInputError
+
+        raise InvalidInputError(f"TENSION_OPT_COMPILED_MIN={text!r} is not a whole number "
+                                ">= 0 (poses from which plain calls take the kernels); "
+                                "unset it for the default 16")
+    return value
+
+
+#: Poses from which a plain batch call takes the compiled kernels (see above).
+COMPILED_MIN = compiled_min_from_environment()
 
 #: Poses from which a batch runs in parallel. Each launch waits for every worker thread
 #: to be scheduled, which on a busy machine can take a scheduler quantum (milliseconds):

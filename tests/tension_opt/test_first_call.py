@@ -22,8 +22,22 @@ DEFAULT_MIN = 16  # the value in tension_opt.kernels.launch (the conftest sets 1
 
 
 def test_the_default_rule_is_the_documented_one() -> None:
-    source = open(launch.__file__).read()
-    assert f"COMPILED_MIN = {DEFAULT_MIN}\n" in source
+    assert launch.DEFAULT_COMPILED_MIN == DEFAULT_MIN
+
+
+@pytest.mark.parametrize("text, value", [("", DEFAULT_MIN), ("1", 1), (" 64 ", 64), ("0", 0)])
+def test_the_environment_sets_the_size(text: str, value: int,
+                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("TENSION_OPT_COMPILED_MIN", text)
+    assert launch.compiled_min_from_environment() == value
+
+
+@pytest.mark.parametrize("text", ["-1", "many", "1.5"])
+def test_a_bad_size_in_the_environment_is_refused(text: str,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("TENSION_OPT_COMPILED_MIN", text)
+    with pytest.raises(to.InvalidInputError, match="TENSION_OPT_COMPILED_MIN"):
+        launch.compiled_min_from_environment()
 
 
 def test_small_batches_compile_nothing_in_a_fresh_process() -> None:
@@ -57,6 +71,7 @@ def test_small_batches_compile_nothing_in_a_fresh_process() -> None:
         print("compiled:", compiled)
     """)
     env = dict(os.environ, NUMBA_CACHE_DIR=tempfile.mkdtemp())
+    env.pop("TENSION_OPT_COMPILED_MIN", None)  # the default rule
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                           env=env, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
