@@ -421,13 +421,12 @@ class CableRobot:
 
     def equilibrium(self, poses: ArrayLike, wrench: ArrayLike | None = None
                     ) -> tuple[NDArray, NDArray]:
-        """:meth:`structure_matrices` (N, n, m) and :meth:`required_wrench` (N, n) at
-        once, in compiled code (:func:`tension_opt.kernels.geometry.robot_geometry`) where
-        it applies to a batch of :data:`~tension_opt.kernels.launch.COMPILED_MIN` poses or
-        more, else by those methods; the same values to rounding and the same errors."""
+        """:meth:`structure_matrices` (N, n, m) and :meth:`required_wrench` (N, n) at once,
+        compiled (:func:`tension_opt.kernels.geometry.robot_geometry`) for batches from
+        ``COMPILED_MIN`` poses, else by those methods: the same values to rounding."""
         p = self.as_poses(poses)
         if compiled_for(len(p)):
-            from tension_opt.kernels.geometry import robot_geometry  # loads numba when used
+            from tension_opt.kernels.geometry import robot_geometry  # loads numba
 
             announce("robot geometry", robot_geometry)
             if compiled := robot_geometry(self, p, wrench):
@@ -598,6 +597,4 @@ class StraightForwardKinematicsResult:
         frame = pd.DataFrame(self.poses, columns=[f"q{i}" for i in range(self.poses.shape[1])])
         frame.insert(0, "pose", np.arange(len(self.poses)))
         frame.insert(1, "status", self.status)
-        frame["residual"] = self.residual
-        frame["iterations"] = self.iterations
-        return frame
+        return frame.assign(residual=self.residual, iterations=self.iterations)
