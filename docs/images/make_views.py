@@ -2,7 +2,7 @@
 
     python docs/images/make_views.py
 
-study_pond_sag.png       the study robot at the pond centre, coupled sag against straight
+study_pond_sag.png       the study robot 2 m above the pond centre, coupled sag against straight
 cogiro_rotated.png       CoGiRo at a rotated pose, coupled sag
 pick_and_place_frame.png one frame of the animated pick-and-place path
 """
@@ -28,7 +28,7 @@ CORNERS = np.array([[-3, -4, 1.0], [-3, -4, 2.0], [3, 4, 2.0], [3, 4, 1.0]])
 
 
 def study_pond_sag(path: Path) -> None:
-    """The study robot at the pond centre: coupled catenaries over the straight chords."""
+    """The study robot 2 m above the pond centre: coupled catenaries over the straight chords."""
     robot = to.presets.algae_harvester()
     pose = [0.0, 0.0, 2.0]
     fig = plt.figure(figsize=(13.0, 5.0))

@@ -47,7 +47,7 @@ from tension_opt.errors import InvalidInputError
 BASELINE = Path(__file__).resolve().parents[1] / "baseline"
 #: Set to 1 to write the baselines afresh (then review and commit them).
 UPDATE = os.environ.get("TENSION_OPT_UPDATE_BASELINES") == "1"
-POND_CENTRE = [0.0, 0.0, 2.0]
+ABOVE_CENTRE = [0.0, 0.0, 2.0]  # 2 m above the pond centre (the origin)
 COGIRO_ROTATED = [0.8, -0.5, 2.2, 0.12, -0.18, 0.5]
 
 
@@ -73,7 +73,7 @@ def cable_lines(fig) -> list:
 
 # ----------------------------------------------------------------------- the numbers
 @pytest.mark.parametrize("model", ["coupled", "thesis"])
-@pytest.mark.parametrize("pose", [POND_CENTRE, [12.0, -9.0, 1.0]])
+@pytest.mark.parametrize("pose", [ABOVE_CENTRE, [12.0, -9.0, 1.0]])
 def test_curves_end_on_the_attachment_and_drawing_points(study, model, pose):
     scene = robot_scene(study, pose, model=model)
     assert scene.status == "converged"
@@ -121,23 +121,23 @@ def test_sag_below_the_chord_is_the_catenary_solvers(study, model):
 
 
 def test_lowest_point_is_where_the_solvers_forces_put_it(study):
-    # The study's convention at the pond centre: V_A < 0, the cables dip below the
+    # The study's convention above the pond centre: V_A < 0, the cables dip below the
     # platform; the lowest point carries V = 0, z_low = z_A + (H - T_A)/w.
-    scene = robot_scene(study, POND_CENTRE, model="thesis", samples=4001)
-    ik = cat.inverse_kinematics(study, POND_CENTRE, model="thesis")
+    scene = robot_scene(study, ABOVE_CENTRE, model="thesis", samples=4001)
+    ik = cat.inverse_kinematics(study, ABOVE_CENTRE, model="thesis")
     H = ik.horizontal_tensions[0]
     V_A = ik.platform_forces[0, :, 2]
     assert (V_A < 0).all()
     w = study.cable.weight_per_length(study.g)
-    z_low = POND_CENTRE[2] + (H - np.hypot(H, V_A)) / w
+    z_low = ABOVE_CENTRE[2] + (H - np.hypot(H, V_A)) / w
     # 4001 samples: the lowest sample is within (w/2H) (L/8000)^2 ~ 1e-7 m of the low point.
     np.testing.assert_allclose(scene.curves[..., 2].min(axis=1), z_low, rtol=0, atol=1e-6)
-    assert (z_low < POND_CENTRE[2]).all()
+    assert (z_low < ABOVE_CENTRE[2]).all()
 
 
 def test_straight_cables_are_the_chords_with_the_distributions_tensions(study):
-    scene = robot_scene(study, POND_CENTRE, model="straight", samples=5)
-    sol = to.distribute(study, POND_CENTRE)
+    scene = robot_scene(study, ABOVE_CENTRE, model="straight", samples=5)
+    sol = to.distribute(study, ABOVE_CENTRE)
     np.testing.assert_allclose(scene.tensions, sol.tensions[0], rtol=1e-12)
     t = np.linspace(0, 1, 5)[None, :, None]
     expected = scene.attachments[:, None] + t * (study.anchors - scene.attachments)[:, None]
@@ -175,8 +175,8 @@ def test_one_artist_and_one_trace_per_cable(preset):
 
 
 def test_plotly_hover_shows_tension_length_and_sag(study):
-    scene = robot_scene(study, POND_CENTRE)
-    figure = plot_robot(study, POND_CENTRE, engine="plotly")
+    scene = robot_scene(study, ABOVE_CENTRE)
+    figure = plot_robot(study, ABOVE_CENTRE, engine="plotly")
     trace = next(t for t in figure.data if t.name == "cable 1")
     text = trace.text[0]
     assert f"{scene.tensions[0]:.1f} N" in text
@@ -230,7 +230,7 @@ def test_the_platform_is_a_closed_solid(study, cogiro):
     assert (Delaunay(vertices).find_simplex(corners, tol=1e-9) >= 0).all()
     assert triangles.shape[1] == 3 and triangles.max() < len(vertices)
     # A point mass is a cube of the given size around its position.
-    vertices, _ = robot_scene(study, POND_CENTRE).platform(size=2.0)
+    vertices, _ = robot_scene(study, ABOVE_CENTRE).platform(size=2.0)
     np.testing.assert_allclose(vertices.min(axis=0), [-1.0, -1.0, 1.0])
     np.testing.assert_allclose(vertices.max(axis=0), [1.0, 1.0, 3.0])
 
@@ -239,7 +239,7 @@ def test_the_platform_is_a_closed_solid(study, cogiro):
 def test_workspace_overlay_colours_feasible_points_by_margin(study):
     grid = to.workspace.workspace_grid([-40, -25, 1.0], [40, 25, 5.0], spacing=[10, 10, 2])
     result = to.workspace.wrench_feasible_workspace(study, grid)
-    fig = plot_robot(study, POND_CENTRE, model="straight")
+    fig = plot_robot(study, ABOVE_CENTRE, model="straight")
     plot_workspace(result, ax=fig.axes[0])
     points = next(c for c in fig.axes[0].collections if c.get_gid() == "workspace")
     feasible = result.feasible & np.isfinite(result.margin)
@@ -284,21 +284,21 @@ def test_compliance_ellipsoid_is_the_stiffness_inverse(cogiro):
 )
 def test_bad_arguments_are_named(study, kwargs, words):
     with pytest.raises(InvalidCableError, match=re.escape(words)):
-        plot_robot(study, POND_CENTRE, **kwargs)
+        plot_robot(study, ABOVE_CENTRE, **kwargs)
 
 
 def test_bad_axes_poses_and_paths(study, tmp_path):
     _, flat = plt.subplots()
     with pytest.raises(InvalidCableError, match="projection='3d'"):
-        plot_robot(study, POND_CENTRE, model="straight", ax=flat)
+        plot_robot(study, ABOVE_CENTRE, model="straight", ax=flat)
     with pytest.raises(InvalidCableError, match="one pose"):
-        plot_robot(study, [POND_CENTRE, POND_CENTRE])
+        plot_robot(study, [ABOVE_CENTRE, ABOVE_CENTRE])
     with pytest.raises(InvalidInputError, match="poses"):
         plot_robot(study, [0.0, 0.0])
     with pytest.raises(InvalidCableError, match=r"\.gif, \.mp4 or \.html"):
-        animate(study, [POND_CENTRE], tmp_path / "a.avi")
+        animate(study, [ABOVE_CENTRE], tmp_path / "a.avi")
     with pytest.raises(InvalidCableError, match='engine="plotly" draws its own'):
-        plot_robot(study, POND_CENTRE, engine="plotly", ax=flat)
+        plot_robot(study, ABOVE_CENTRE, engine="plotly", ax=flat)
 
 
 def test_missing_plotly_names_the_extra(study, monkeypatch):
@@ -306,7 +306,7 @@ def test_missing_plotly_names_the_extra(study, monkeypatch):
         monkeypatch.delitem(sys.modules, name)
     monkeypatch.setitem(sys.modules, "plotly", None)
     with pytest.raises(OptionalDependencyError, match=re.escape("tension-opt[viz]")):
-        plot_robot(study, POND_CENTRE, model="straight", engine="plotly")
+        plot_robot(study, ABOVE_CENTRE, model="straight", engine="plotly")
 
 
 def test_import_catenary_imports_no_plotting_library():
@@ -385,7 +385,7 @@ def _check_image(fig, name: str, tmp_path: Path, tol: float = 3.0) -> None:
             "study_pond_coupled.png",
             lambda: plot_robot(
                 to.presets.algae_harvester(),
-                POND_CENTRE,
+                ABOVE_CENTRE,
                 reference="straight",
                 z_scale=4,
                 figsize=(6.0, 4.5),
@@ -395,7 +395,7 @@ def _check_image(fig, name: str, tmp_path: Path, tol: float = 3.0) -> None:
             "study_pond_side.png",
             lambda: plot_robot(
                 to.presets.algae_harvester(),
-                POND_CENTRE,
+                ABOVE_CENTRE,
                 model="thesis",
                 reference="coupled",
                 view="xz",
@@ -461,7 +461,7 @@ def test_html_views_render_in_a_headless_browser(study, tmp_path):
     from PIL import Image
 
     pages = {"view": tmp_path / "view.html", "animation": tmp_path / "animation.html"}
-    plot_robot(study, POND_CENTRE, engine="plotly").write_html(pages["view"], include_plotlyjs=True)
+    plot_robot(study, ABOVE_CENTRE, engine="plotly").write_html(pages["view"], include_plotlyjs=True)
     animate(
         study, np.linspace([-3.0, -4.0, 1.0], [3.0, 4.0, 2.0], 12), pages["animation"], samples=21
     )
