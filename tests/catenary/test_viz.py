@@ -461,7 +461,9 @@ def test_html_views_render_in_a_headless_browser(study, tmp_path):
     from PIL import Image
 
     pages = {"view": tmp_path / "view.html", "animation": tmp_path / "animation.html"}
-    plot_robot(study, ABOVE_CENTRE, engine="plotly").write_html(pages["view"], include_plotlyjs=True)
+    plot_robot(study, ABOVE_CENTRE, engine="plotly").write_html(
+        pages["view"], include_plotlyjs=True
+    )
     animate(
         study, np.linspace([-3.0, -4.0, 1.0], [3.0, 4.0, 2.0], 12), pages["animation"], samples=21
     )
