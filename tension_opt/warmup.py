@@ -114,7 +114,9 @@ def _timing() -> None:
     from tension_opt.dynamics.timing import time_optimal
     from tension_opt.robot import presets
 
-    # The compiled reachability passes and the facets of the checks between grid points.
+    # The compiled reachability passes and the facet rows of the checks between grid
+    # points (tension_opt.kernels.point_rows; the certified pass of the tensions is the
+    # family of its own).
     path = np.array([[-20.0, -10.0, 1.0], [0.0, 0.0, 3.0], [20.0, 10.0, 1.0]])
     time_optimal(presets.algae_harvester(t_max=15e3), path, gridpoints=_BATCH,
                  method="reachability")

@@ -306,6 +306,8 @@ def _refit(batch: ScaledBatch, x: NDArray, poses: NDArray, mult: Multipliers) ->
     from scipy.optimize import lsq_linear
 
     n, g, k = batch.Aeq.shape[1], batch.G.shape[1], batch.k
+    fitted: list[int] = []
+    found: list[NDArray] = []
     for i in poses:
         one = batch.subset(np.array([i]))
         xi = x[i:i + 1]
@@ -340,11 +342,19 @@ def _refit(batch: ScaledBatch, x: NDArray, poses: NDArray, mult: Multipliers) ->
             continue
         u = np.zeros(n + g + k)
         u[free] = fit.x
-        candidate = Multipliers(u[None, :n], u[None, n:n + g], u[None, n + g:])
-        old = measures(one, xi, mult.subset(np.array([i])))
-        new = measures(one, xi, candidate)
-        if max(new[1][0], new[2][0]) < max(old[1][0], old[2][0]):
-            mult.put(np.array([i]), candidate)
+        fitted.append(int(i))
+        found.append(u)
+    if not fitted:
+        return
+    # Measured together, the old multipliers and the fits (each pose's own rows).
+    idx = np.array(fitted)
+    fits = np.array(found)
+    candidate = Multipliers(fits[:, :n], fits[:, n:n + g], fits[:, n + g:])
+    sub = batch.subset(idx)
+    old = measures(sub, x[idx], mult.subset(idx))
+    new = measures(sub, x[idx], candidate)
+    better = np.maximum(new[1], new[2]) < np.maximum(old[1], old[2])
+    mult.put(idx[better], candidate.subset(better))
 
 
 def certify(batch: ScaledBatch, x: NDArray, multipliers: Multipliers | None = None,

@@ -27,8 +27,8 @@ from tension_opt.dynamics.path import PathStages
 from tension_opt.problem.form import safe_norm, typical_tension
 from tension_opt.tolerances import UB_SHARE
 
-__all__ = ["FACET_CAP", "PointRows", "facets_fit", "point_rows", "tension_gap",
-           "tension_scale"]
+__all__ = ["FACET_CAP", "PointRows", "facets_fit", "point_rows", "point_rows_reference",
+           "tension_gap", "tension_scale"]
 
 #: Most facets per point (``2 C(m, n - 1)``) for rows; beyond, the LPs over the tensions.
 FACET_CAP = 2000
@@ -58,18 +58,6 @@ def facets_fit(A: NDArray) -> bool:
         return False
     sv = np.linalg.svd(A, compute_uv=False)
     return bool((sv[:, -1] > 1e-10 * np.maximum(sv[:, 0], 1e-300)).all())
-
-
-def _normals(A: NDArray) -> NDArray:
-    """Unit normals (P, S, n) of every ``n - 1`` columns of ``A`` (the compiled
-    Householder twin for more than three rows; a cross product for three)."""
-    _, n, m = A.shape
-    subsets = np.array(list(itertools.combinations(range(m), n - 1)), dtype=np.int64)
-    if n <= 3:
-        return subset_normals_reference(A, subsets.reshape(len(subsets), n - 1))
-    from tension_opt.kernels.facets import subset_normals
-
-    return subset_normals(np.ascontiguousarray(A), subsets)
 
 
 @dataclass(frozen=True, eq=False)
@@ -135,18 +123,67 @@ class PointRows:
         return np.maximum(np.maximum(s, self.low), 1e-12)
 
 
-def point_rows(points: PathStages, offset: NDArray, gap: NDArray | None = None
-               ) -> PointRows:
+def _compiled_facets(A: NDArray, lb: NDArray, ub: NDArray, coef: NDArray, gap: NDArray
+                     ) -> tuple[NDArray, NDArray, NDArray, NDArray] | None:
+    """``G, g, weight, moved`` of :func:`point_rows` by
+    :func:`tension_opt.kernels.point_rows.point_rows_into`; None for a structure matrix
+    of lower rank (or fewer than two rows), which the reference handles."""
+    P, n, m = A.shape
+    if n < 2 or m < n:
+        return None
+    from tension_opt.kernels.point_rows import point_rows_into  # loads numba
+
+    subsets = itertools.combinations(range(m), n - 1)
+    complements = np.array([[j for j in range(m) if j not in sub] for sub in subsets],
+                           dtype=np.int64).reshape(-1, m - n + 1)
+    F = 2 * len(complements)
+    G, g = np.empty((P, F, 2)), np.empty((P, F))
+    weight, moved = np.empty((P, F)), np.empty((P, F))
+    ok = point_rows_into(np.ascontiguousarray(A), np.ascontiguousarray(lb),
+                         np.ascontiguousarray(ub, dtype=float), np.ascontiguousarray(coef),
+                         np.ascontiguousarray(gap), complements, G, g, weight, moved)
+    return (G, g, weight, moved) if ok else None
+
+
+def point_rows(points: PathStages, offset: NDArray, gap: NDArray | None = None,
+               compiled: bool = True) -> PointRows:
     """The rows of ``points`` at ``offset`` from their grid points; ``gap`` (P, m): the
-    tension slack of each cable (``moved``)."""
+    tension slack of each cable (``moved``). ``compiled``: the facets by
+    :mod:`tension_opt.kernels.point_rows` (the reference: False, or a structure matrix
+    of lower rank)."""
     A, lb, ub = points.A, points.lb, points.ub
-    H, h, size = facet_data(A, lb, ub, _normals(A))
     au = points.a + 2.0 * offset[:, None] * points.b
-    coef = H @ np.stack([au, points.b, points.c], axis=2)  # (P, F, 3)
-    moved = None if gap is None else (size @ gap[:, :, None])[..., 0]
+    coef = np.stack([au, points.b, points.c], axis=2)  # (P, n, 3)
+    fast = None
+    if compiled:
+        fast = _compiled_facets(A, lb, ub, coef, np.zeros_like(lb) if gap is None else gap)
+    if fast is not None:
+        G, g, weight, moved_all = fast
+        moved = None if gap is None else moved_all
+    else:
+        G, g, weight, moved = _reference_facets(A, lb, ub, coef, gap)
     with np.errstate(invalid="ignore"):
         half = np.where(np.isfinite(ub), 0.5 * (ub - lb), np.inf).min(axis=1)
     low = np.where(np.isfinite(lb), np.abs(lb), 0.0).max(axis=1)
-    return PointRows(np.ascontiguousarray(coef[..., :2]), h - coef[..., 2], size.sum(axis=2),
-                     moved, half, au, points.b, points.c, safe_norm(A, axis=1).max(axis=1),
-                     low)
+    return PointRows(G, g, weight, moved, half, au, points.b, points.c,
+                     safe_norm(A, axis=1).max(axis=1), low)
+
+
+def point_rows_reference(points: PathStages, offset: NDArray, gap: NDArray | None = None
+                         ) -> PointRows:
+    """:func:`point_rows` by numpy alone (the normals by singular value decompositions):
+    the reference of the compiled facets."""
+    return point_rows(points, offset, gap, compiled=False)
+
+
+def _reference_facets(A: NDArray, lb: NDArray, ub: NDArray, coef: NDArray,
+                      gap: NDArray | None
+                      ) -> tuple[NDArray, NDArray, NDArray, NDArray | None]:
+    """``G, g, weight, moved`` by :func:`~tension_opt.dynamics.facets.facet_data`."""
+    _, n, m = A.shape
+    subsets = np.array(list(itertools.combinations(range(m), n - 1)), dtype=np.int64)
+    H, h, size = facet_data(A, lb, ub,
+                            subset_normals_reference(A, subsets.reshape(len(subsets), n - 1)))
+    prod = H @ coef  # (P, F, 3)
+    moved = None if gap is None else (size @ gap[:, :, None])[..., 0]
+    return np.ascontiguousarray(prod[..., :2]), h - prod[..., 2], size.sum(axis=2), moved

@@ -52,9 +52,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from tension_opt.backends.registry import choose_backend
 from tension_opt.checks import as_float_array, is_number
-from tension_opt.distribution.solution import solution_of
 from tension_opt.dynamics.between import Between
 from tension_opt.dynamics.deadline import Deadline, OutOfTime
 from tension_opt.dynamics.intervals import PathModel, StageChecks, initial_checks
@@ -62,6 +60,7 @@ from tension_opt.dynamics.path import PathSpline, PathStages
 from tension_opt.dynamics.reachability import failed_points
 from tension_opt.dynamics.timed import TimedTrajectory
 from tension_opt.dynamics.timing_rounds import refine
+from tension_opt.dynamics.timing_tensions import timing_tensions
 from tension_opt.errors import InvalidInputError
 from tension_opt.problem.form import Objective, TensionProblem, as_problem, typical_tension
 from tension_opt.robot import CableRobot
@@ -214,26 +213,6 @@ class TimingResult:
         for i in range(self.tensions.shape[1]):
             frame[f"T{i}"] = self.tensions[:, i]
         return frame
-
-
-def _tensions(robot: CableRobot, stages: PathStages, W: NDArray,
-              problem: TensionProblem, custom_bounds: bool, backend: Any,
-              options: dict[str, Any]) -> tuple[NDArray, NDArray]:
-    """Tensions (K, m) holding the wrenches ``W`` (K, n) by the objective, and status.
-
-    ``options["previous"]`` (K, m), if any, are the previous tensions of a smoothed
-    objective, each point against its own.
-    """
-    if custom_bounds:
-        problem = problem.with_(t_min=stages.lb, t_max=stages.ub)
-    options = dict(options)
-    previous = options.pop("previous", None)
-    if previous is not None:
-        previous = np.broadcast_to(as_float_array("previous", previous), stages.lb.shape)
-    form = problem.standard_form_from(robot, stages.A, W, previous)
-    chosen = choose_backend(backend, form)
-    sol = solution_of(form, chosen.solve(form, **options), chosen)
-    return sol.tensions, sol.status
 
 
 def time_optimal(
@@ -409,13 +388,12 @@ def _timed(run: _Run, x: NDArray, u: NDArray, sets: NDArray, between: Between, m
     options = run.options
     if run.deadline.limited:  # the time left, a little at least
         options = {**options, "time_limit": max(run.deadline.remaining(), 1e-3)}
-    T, status = _tensions(run.robot, stages, W, run.problem, run.custom_bounds, run.backend,
-                          options)
+    T, status = timing_tensions(run.robot, stages, W, run.problem, run.custom_bounds,
+                                not run.model.structure, run.backend, options)
     # Outside the feasible set (or a motion limit) between grid points after the last
     # round of checks: the figures stand, not as optimal.
     status[:-1][between.bad & (status[:-1] == Status.OPTIMAL)] = Status.INACCURATE
-    ones = np.ones_like(stages.lb)
-    margin, _, _, _ = margin_solve(stages.A, W, stages.lb, ones, stages.ub, ones, "auto")
+    margin = _grid_margin(run.extras["checks"], stages, W, u, x)
     typical = typical_tension(stages.A, W, stages.lb)
     tight = run.active_tol * typical[:, None]
     active = margin <= run.active_tol * typical
@@ -426,3 +404,17 @@ def _timed(run: _Run, x: NDArray, u: NDArray, sets: NDArray, between: Between, m
         np.abs(vel) >= run.vmax * (1 - run.active_tol),
         np.abs(acc) >= run.amax * (1 - run.active_tol), sets, method, count,
         time.perf_counter() - run.t0, run.extras)
+
+
+def _grid_margin(checks: StageChecks, stages: PathStages, W: NDArray, u: NDArray,
+                 x: NDArray) -> NDArray:
+    """Capacity margin (N) of the wrenches ``W`` (K, n) at the grid points: from the
+    checks' facet rows where they have them (the grid points' own, ``offset == 0``: a
+    few products), else solved (:func:`~tension_opt.workspace.margin.margin_solve`)."""
+    rows = checks.rows
+    mine = np.flatnonzero(checks.offset == 0.0)
+    if rows is not None and mine.size == stages.K and (checks.owner[mine] == np.arange(
+            stages.K)).all():
+        return rows.take(mine).margin(u, x)
+    ones = np.ones_like(stages.lb)
+    return margin_solve(stages.A, W, stages.lb, ones, stages.ub, ones, "auto")[0]

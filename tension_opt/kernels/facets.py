@@ -16,11 +16,11 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["subset_normals"]
+__all__ = ["column_normal", "subset_normals"]
 
 
 @njit(cache=True, error_model="numpy")
-def _normal(B: NDArray, vs: NDArray, out: NDArray) -> None:
+def column_normal(B: NDArray, vs: NDArray, out: NDArray) -> None:
     """Unit normal of the columns of ``B`` (n, n - 1) into ``out`` (n,); ``B`` is
     overwritten, ``vs`` (n - 1, n) is work space."""
     n = B.shape[0]
@@ -84,5 +84,5 @@ def subset_normals(A: NDArray, subsets: NDArray) -> NDArray:
             for c in range(n - 1):
                 for i in range(n):
                     B[i, c] = A[p, i, subsets[s, c]]
-            _normal(B, vs, out[p, s])
+            column_normal(B, vs, out[p, s])
     return out
