@@ -53,6 +53,7 @@ from numpy.typing import ArrayLike, NDArray
 import tension_opt
 from tension_opt import CableRobot, TensionProblem
 from tension_opt.backends import Backend
+from tension_opt.kernels.launch import compiled_for
 from tension_opt.problem.form import Objective
 from tension_opt.status import Status, status_array
 
@@ -71,15 +72,21 @@ from .inverse import inverse_kinematics
 
 __all__ = [
     "MODELS",
+    "CableState",
     "StiffnessResult",
     "across_stiffness",
     "assemble_stiffness",
     "catenary_cable_stiffness",
+    "catenary_state",
+    "coupled_state",
     "cross_matrix",
+    "given_tensions",
     "platform_stiffness",
+    "state_result",
     "step_basis",
     "stiffness_analysis",
     "straight_cable_stiffness",
+    "straight_state",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -295,8 +302,9 @@ class StiffnessResult:
 
 
 @dataclass(frozen=True)
-class _CableState:
-    """Cable forces and stiffnesses of a batch (internal)."""
+class CableState:
+    """Cable forces (N, m, 3), stiffnesses (N, m, 3, 3), tensions and unstretched
+    lengths (N, m) and status (N,) of a batch."""
 
     forces: FloatArray
     stiffness: FloatArray
@@ -305,7 +313,8 @@ class _CableState:
     status: NDArray[np.str_]
 
 
-def _given_tensions(robot: CableRobot, tensions: ArrayLike, N: int) -> FloatArray:
+def given_tensions(robot: CableRobot, tensions: ArrayLike, N: int) -> FloatArray:
+    """Given tensions (N) as an (N, m) array, or the error naming ``tensions``."""
     T = np.asarray(tensions, dtype=float)
     try:
         T = np.broadcast_to(T, (N, robot.m))
@@ -319,8 +328,8 @@ def _given_tensions(robot: CableRobot, tensions: ArrayLike, N: int) -> FloatArra
     return T
 
 
-def _straight_state(robot: CableRobot, poses: FloatArray, tensions: ArrayLike | None,
-                    wrench: ArrayLike | None, solve: dict[str, Any]) -> _CableState:
+def straight_state(robot: CableRobot, poses: FloatArray, tensions: ArrayLike | None,
+                   wrench: ArrayLike | None, solve: dict[str, Any]) -> CableState:
     """Straight elastic cables with the given or the distributed tensions."""
     _, EA = cable_data(robot)
     if not np.isfinite(EA):
@@ -335,17 +344,17 @@ def _straight_state(robot: CableRobot, poses: FloatArray, tensions: ArrayLike | 
                                      wrench=wrench, **solve["options"])
         T, status = sol.tensions, np.asarray(sol.status).astype(str)
     else:
-        T, status = _given_tensions(robot, tensions, N), status_array(N, Status.CONVERGED)
+        T, status = given_tensions(robot, tensions, N), status_array(N, Status.CONVERGED)
         status[np.isnan(T).any(axis=1)] = Status.NOT_RUN
     L, u = geometry.lengths, geometry.unit
-    return _CableState(T[..., None] * u, straight_cable_stiffness(u, L, T, EA), T,
+    return CableState(T[..., None] * u, straight_cable_stiffness(u, L, T, EA), T,
                        L * EA / (EA + T), status)
 
 
-def _coupled_state(robot: CableRobot, poses: FloatArray, planes: CablePlanes,
-                   tensions: ArrayLike | None, end: Literal["A", "B"],
-                   wrench: ArrayLike | None,
-                   solve: dict[str, Any]) -> _CableState:
+def coupled_state(robot: CableRobot, poses: FloatArray, planes: CablePlanes,
+                  tensions: ArrayLike | None, end: Literal["A", "B"],
+                  wrench: ArrayLike | None,
+                  solve: dict[str, Any]) -> CableState:
     """Catenaries of the coupled inverse kinematics, or carrying the given tensions."""
     w, EA = cable_data(robot)
     if w == 0.0 and not np.isfinite(EA):
@@ -361,7 +370,7 @@ def _coupled_state(robot: CableRobot, poses: FloatArray, planes: CablePlanes,
     else:
         if end not in ("A", "B"):
             raise InvalidCableError(f'end must be "A" or "B"; got end={end!r}')
-        T = _given_tensions(robot, tensions, N)
+        T = given_tensions(robot, tensions, N)
         given = ~np.isnan(T).any(axis=1)
         H, V_A, V_B, L0 = (np.full((N, robot.m), np.nan) for _ in range(4))
         status = status_array(N, Status.NOT_RUN)
@@ -370,7 +379,15 @@ def _coupled_state(robot: CableRobot, poses: FloatArray, planes: CablePlanes,
             H[given], V_A[given], V_B[given], L0[given] = c.H, c.V_A, c.V_B, c.L0
             status[given] = np.where(c.converged.all(axis=1), Status.CONVERGED,
                                      Status.CATENARY_FAILED)
-    return _CableState(platform_forces(planes, H, V_A),
+    return catenary_state(planes, H, V_A, V_B, L0, status, w, EA)
+
+
+def catenary_state(planes: CablePlanes, H: FloatArray, V_A: FloatArray, V_B: FloatArray,
+                   L0: FloatArray, status: NDArray[np.str_], w: float, EA: float
+                   ) -> CableState:
+    """Forces and stiffnesses of catenaries given by their forces (N) and unstretched
+    lengths (m), (N, m) each."""
+    return CableState(platform_forces(planes, H, V_A),
                        catenary_cable_stiffness(planes, H, V_B, L0, w, EA),
                        np.hypot(H, V_B), L0, status)
 
@@ -425,15 +442,41 @@ def stiffness_analysis(
         For an unknown model, a robot without suitable cable properties, or tensions
         of the wrong shape or sign.
     """
+    return _analysis(robot, poses, tensions, model, end, wrench, objective, backend,
+                     options, full=True)
+
+
+def _analysis(robot: CableRobot, poses: ArrayLike, tensions: ArrayLike | None,
+              model: StiffnessModel, end: Literal["A", "B"], wrench: ArrayLike | None,
+              objective: str | Objective | TensionProblem, backend: str | Backend,
+              options: dict[str, Any], full: bool) -> StiffnessResult:
+    """:func:`stiffness_analysis`; batches of :data:`COMPILED_MIN
+    <tension_opt.kernels.launch.COMPILED_MIN>` poses and more through the kernels
+    (:func:`catenary.stiffness_compiled.batch_analysis`, where they cover the robot and the
+    model), whose ``cable_stiffness``, ``platform_forces``, ``tensions`` and ``lengths``
+    are left empty unless ``full``."""
     if model not in MODELS:
         raise InvalidCableError(f'model must be "coupled" or "straight"; got model={model!r}')
     p = robot.as_poses(poses)
-    planes = cable_planes(robot, p)
     solve = {"objective": objective, "backend": backend, "options": options}
+    if compiled_for(len(p)):
+        # Imported here: the batch path builds on this module's numpy reference.
+        from .stiffness_compiled import batch_analysis
+
+        result = batch_analysis(robot, p, tensions, model, end, wrench, solve, full)
+        if result is not None:
+            return result
+    planes = cable_planes(robot, p)
     if model == "straight":
-        state = _straight_state(robot, p, tensions, wrench, solve)
+        state = straight_state(robot, p, tensions, wrench, solve)
     else:
-        state = _coupled_state(robot, p, planes, tensions, end, wrench, solve)
+        state = coupled_state(robot, p, planes, tensions, end, wrench, solve)
+    return state_result(robot, p, planes, state, wrench, model)
+
+
+def state_result(robot: CableRobot, p: FloatArray, planes: CablePlanes, state: CableState,
+                 wrench: ArrayLike | None, model: str) -> StiffnessResult:
+    """The stiffness of validated poses (N, n) from their cable state, by numpy."""
     ok = np.isin(state.status, (Status.CONVERGED, Status.OPTIMAL))
     K = np.full((len(p), robot.dof, robot.dof), np.nan)
     if ok.any():
@@ -482,4 +525,7 @@ def platform_stiffness(
     >>> K.shape
     (1, 3, 3)
     """
-    return stiffness_analysis(robot, poses, tensions, model, **kwargs).stiffness
+    end, wrench = kwargs.pop("end", "B"), kwargs.pop("wrench", None)
+    objective, backend = kwargs.pop("objective", "min_sum"), kwargs.pop("backend", "auto")
+    return _analysis(robot, poses, tensions, model, end, wrench, objective, backend, kwargs,
+                     full=False).stiffness
