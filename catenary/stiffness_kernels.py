@@ -14,7 +14,8 @@ Where the kernel cannot answer as the reference would (a cable on its drawing po
 a vertical one, a catenary the compiled length solve leaves to the numpy path, a
 degenerate limit of the span formulas) the pose gets :data:`FALLBACK` and the caller
 computes it by the numpy reference; a row of given tensions with NaN gets
-:data:`NOT_RUN` (NaN results), as in the reference.
+:data:`NOT_RUN` (NaN results; straight cables keep those of the cables that have
+a tension), as in the reference.
 
 The robot's constants travel as one float array (:func:`catenary.stiffness_compiled.pack`);
 the models are
@@ -239,9 +240,12 @@ def stiffness_pose(
         for i in range(m):
             if given[i] < 0.0 or given[i] == np.inf:
                 return INVALID, np.nan
+    missing = False
+    if model != COUPLED_STATE:
         for i in range(m):
-            if not given[i] == given[i]:
-                return NOT_RUN, np.nan
+            missing = missing or not given[i] == given[i]
+        if missing and model != STRAIGHT:
+            return NOT_RUN, np.nan  # no catenaries (straight cables each have theirs)
     R00, R01, R02, R10, R11, R12, R20, R21, R22 = rotation(kind, pose)
     px, py, pz = platform_position(kind, pose)
     K6[:, :] = 0.0
@@ -261,8 +265,10 @@ def stiffness_pose(
             u0, u1, u2 = v0 / L, v1 / L, v2 / L
             T = given[i]
             s, t = EA / L, T / L
-            a00, a01, a02 = s * (u0 * u0) + t, s * (u0 * u1), s * (u0 * u2)
-            a11, a12, a22 = s * (u1 * u1) + t, s * (u1 * u2), s * (u2 * u2) + t
+            # (T / L) I off the diagonal as the reference adds it: 0 (NaN without T).
+            o = t * 0.0
+            a00, a01, a02 = s * (u0 * u0) + t, s * (u0 * u1) + o, s * (u0 * u2) + o
+            a11, a12, a22 = s * (u1 * u1) + t, s * (u1 * u2) + o, s * (u2 * u2) + t
             f0, f1, f2 = T * u0, T * u1, T * u2
             tensions[i], lengths[i] = T, L * EA / (EA + T)
         else:
@@ -324,7 +330,7 @@ def stiffness_pose(
         res += left * left
         for b in range(n):
             K[a, b] = K6[ia, int(sel[b])]
-    return OK, math.sqrt(res)
+    return (NOT_RUN if missing else OK), math.sqrt(res)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -472,6 +478,7 @@ def _pose_into(
     codes[k], residual[k] = code, res
     if code != OK:
         K[k] = np.nan
+    if code != OK and not (code == NOT_RUN and model == STRAIGHT):
         Kc[j] = np.nan
         forces[j] = np.nan
         tensions[j] = np.nan

@@ -31,7 +31,15 @@ from .errors import InvalidCableError
 from .geometry import cable_data
 from .robot_stiffness import MODELS, StiffnessResult, stiffness_analysis
 from .stiffness_compiled import CatenaryState, kernel_model, pack, reference_result
-from .stiffness_kernels import COUPLED_STATE, FALLBACK, INVALID, NOT_RUN, OK, stiffness_pose
+from .stiffness_kernels import (
+    COUPLED_STATE,
+    FALLBACK,
+    INVALID,
+    NOT_RUN,
+    OK,
+    STRAIGHT,
+    stiffness_pose,
+)
 
 __all__ = ["PoseStiffness"]
 
@@ -230,10 +238,10 @@ class PoseStiffness:
             return reference_result(
                 self.robot, p[None], self.model, codes, given, one, self.end, wrench
             )
-        if code != OK:
-            for a in (K, Kc, forces, tens, lengths):
+        if code != OK and not (code == NOT_RUN and model == STRAIGHT):
+            for a in (Kc, forces, tens, lengths):
                 a.fill(np.nan)
-        elif status not in _SUCCESS:
+        if code != OK or status not in _SUCCESS:
             K.fill(np.nan)
         return _result(
             stiffness=K,

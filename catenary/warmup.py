@@ -1,8 +1,8 @@
 """The kernel families of ``catenary`` for ``python -m tension_opt warmup``
 (:mod:`tension_opt.warmup`), registered when ``catenary`` is imported: the single
 cable (few cables one at a time, batches side by side in the vector unit, the
-bracketing search), the thesis convention's sag inverse kinematics of one pose, and
-the coupled model's."""
+bracketing search), the thesis convention's sag inverse kinematics of one pose, the
+coupled model's, and the platform stiffness (one pose, serial and parallel batches)."""
 
 from __future__ import annotations
 
@@ -47,6 +47,29 @@ def _coupled_ik() -> None:
     CoupledIK(robot)(pose[0])
 
 
+def _stiffness() -> None:
+    from catenary.stiffness_compiled import compiled_stiffness, kernel_model, pack
+    from catenary.stiffness_kernels import stiffness_batch, stiffness_parallel
+    from catenary.stiffness_loop import PoseStiffness
+    from tension_opt.robot import presets
+
+    robot = presets.cogiro()
+    pose = robot.default_home()
+    tensions = np.full(robot.m, 200.0)
+    for model in ("straight", "coupled"):
+        stiffness = PoseStiffness(robot, model)
+        stiffness(pose, tensions)
+    code, n, m = kernel_model(robot, "straight", True), robot.dof, robot.m
+    out = compiled_stiffness(robot, pack(robot), code, pose[None], np.zeros((1, n)),
+                             tensions[None])
+    # The parallel variant too (the launch rule picks it for large batches).
+    for kernel in (stiffness_batch, stiffness_parallel):
+        kernel(pack(robot), code, pose[None], np.zeros((1, n)), tensions[None],
+               np.zeros((1, m)), np.zeros((1, m, 3)), np.zeros((1, m)), out.stiffness,
+               out.cable_stiffness, out.platform_forces, out.tensions, out.lengths,
+               out.equilibrium_residual, out.codes)
+
 warmup.register("catenary: single cable", _single_cable)
 warmup.register("catenary: thesis sag IK", _thesis_ik)
 warmup.register("catenary: coupled sag IK", _coupled_ik)
+warmup.register("catenary: platform stiffness", _stiffness)
