@@ -5,11 +5,13 @@ Each row times the numpy reference of a call ("before": the plain call as it was
 before the compiled path, kept as ``compiled=False``), the compiled path
 (:class:`tension_opt.Distributor`, the plain calls on :mod:`tension_opt.kernels` and
 :mod:`catenary.solve.kernels`, :class:`catenary.thesis_ik.ThesisIK`,
-:class:`catenary.coupled_ik.CoupledIK`; "after") and raw baselines (the DAQP call on
-the same data, plain numpy arithmetic), with p50 and p99 over many calls. Single calls
-are timed in CPU time of the calling thread (``time.thread_time_ns``), so that other
-load on a shared machine counts less; the timer's own cost (about 1 us: the clock is a
-system call) is printed as the first row and included in every per-call figure.
+:class:`catenary.coupled_ik.CoupledIK`, :class:`catenary.PoseStiffness` and the
+compiled batches of :func:`catenary.platform_stiffness`; "after") and raw baselines
+(the DAQP call on the same data, plain numpy arithmetic), with p50 and p99 over many
+calls. Single calls are timed in CPU time of the calling thread
+(``time.thread_time_ns``), so that other load on a shared machine counts less; the
+timer's own cost (about 1 us: the clock is a system call) is printed as the first row
+and included in every per-call figure.
 Batches are timed in wall time per pose (``time.perf_counter``) on one and on all numba
 threads: the median of seven calls after one untimed call of the same size, the
 variants of a row taken in turn (one call of each per round). A plain
@@ -42,7 +44,9 @@ from catenary.solve_compiled import PARALLEL_FROM, solve_forces_compiled, solve_
 from tension_opt import presets
 from tension_opt.backends.closed_form import ClosedFormBackend
 from tension_opt.distribution.entry import chunk_threads
+from tension_opt.kernels import launch
 from tension_opt.kernels.launch import PARALLEL_MIN
+from tension_opt.workspace.sampling import random_feasible_poses
 
 __all__ = ["main"]
 
@@ -222,6 +226,67 @@ def catenary_rows() -> None:
 
 
 @contextlib.contextmanager
+def _numpy_batches() -> Iterator[None]:
+    """Plain batch calls by their numpy references (the size rule set out of reach)."""
+    saved = launch.COMPILED_MIN
+    launch.COMPILED_MIN = 2**62
+    try:
+        yield
+    finally:
+        launch.COMPILED_MIN = saved
+
+
+def stiffness_rows(count: int) -> None:
+    """Platform stiffness of CoGiRo (8 cables, 6 DOF) and the study robot (steel
+    cables): one pose per call, straight cables with given tensions and the coupled sag
+    model; and a batch of ``count`` poses (at most 10^5) with straight cables."""
+    import numba
+
+    from catenary.stiffness_loop import PoseStiffness
+
+    config = cast(_NumbaConfig, numba.config)
+    cogiro = presets.cogiro()
+    study = presets.algae_harvester(EA=float(catenary.cable_properties("steel", 0.02)[1]))
+    for robot in (cogiro, study):
+        pose = robot.default_home()
+        T = to.distribute(robot, pose, "min_norm", "closed_form").tensions[0]
+        print(f"platform stiffness ({robot.name}), one pose, straight cables, tensions given")
+        before = row("before: catenary.platform_stiffness",
+                     lambda r=robot, p=pose, t=T: catenary.platform_stiffness(
+                         r, p, t, "straight"))
+        straight = PoseStiffness(robot, "straight")
+        after = row("after: catenary.PoseStiffness", lambda s=straight, p=pose, t=T: s(p, t))
+        ratio(before, after)
+        print(f"platform stiffness ({robot.name}), one pose, coupled sag model")
+        before = row("before: catenary.platform_stiffness (coupled IK, numpy)",
+                     lambda r=robot, p=pose: catenary.platform_stiffness(r, p))
+        coupled = PoseStiffness(robot, "coupled")
+        after = row("after: catenary.PoseStiffness (CoupledIK, warm stream)",
+                    lambda s=coupled, p=pose: s(p))
+        ratio(before, after)
+        before = row("before: catenary.platform_stiffness, tensions given",
+                     lambda r=robot, p=pose, t=T: catenary.platform_stiffness(r, p, t))
+        after = row("after: catenary.PoseStiffness, tensions given",
+                    lambda s=coupled, p=pose, t=T: s(p, t))
+        ratio(before, after)
+    size = min(count, 100_000)
+    poses = random_feasible_poses(cogiro, size, seed=0)
+    T = to.distribute(cogiro, poses, "min_norm", "closed_form").tensions
+    print(f"platform_stiffness (CoGiRo), straight cables, tensions given, {size} poses")
+    with _numpy_batches():
+        numpy_time = wall_per_item(lambda: catenary.platform_stiffness(
+            cogiro, poses, T, "straight"), size, runs=3) / 1e3
+    print(f"  before (numpy reference)                    {numpy_time:10.2f} us/pose")
+    for threads in sorted({1, config.NUMBA_NUM_THREADS}):
+        numba.set_num_threads(threads)
+        compiled = wall_per_item(lambda: catenary.platform_stiffness(
+            cogiro, poses, T, "straight"), size) / 1e3
+        print(f"  after: platform_stiffness, {threads} thread(s)         {compiled:10.2f} "
+              f"us/pose  ({numpy_time / compiled:.1f}x)")
+    numba.set_num_threads(config.NUMBA_NUM_THREADS)
+
+
+@contextlib.contextmanager
 def _chunk_threads(threads: int) -> Iterator[None]:
     """``distribute`` with its chunks on ``threads`` threads (default: numba's count)."""
     module = importlib.import_module("tension_opt.distribution.entry")
@@ -360,16 +425,23 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--poses", type=int, default=1_000_000,
                         help="poses (and cables) of the batch rows (default 10^6)")
+    parser.add_argument("--only", choices=["stiffness"],
+                        help="print only these rows (after the timer floor)")
     parser.add_argument("--cold", action="store_true",
                         help="also time compiling into an empty cache (minutes)")
     args = parser.parse_args(argv)
     print(f"bench_latency  python {sys.version.split()[0]}  numpy {np.__version__}  "
           f"cores {os.cpu_count()}  load average {os.getloadavg()[0]:.1f}")
-    first_call(args.cold)
+    if args.only is None:
+        first_call(args.cold)
     print("timer floor (an empty call)")
     row("lambda: None", lambda: None)
+    if args.only == "stiffness":
+        stiffness_rows(args.poses)
+        return
     single_pose_rows()
     catenary_rows()
+    stiffness_rows(args.poses)
     batch_rows(args.poses)
     print(f"load average at the end {os.getloadavg()[0]:.1f}")
 

@@ -19,7 +19,9 @@ A :class:`tension_opt.CableRobot` whose cables sag (built on ``tension_opt``):
 - ``catenary.margin``: the coupled capacity margin (:func:`coupled_margin`);
 - ``catenary.workspace``: the coupled-sag workspace (:func:`sag_workspace`).
 - ``catenary.robot_stiffness``: the platform's stiffness with straight or sagging
-  elastic cables (:func:`platform_stiffness`);
+  elastic cables (:func:`platform_stiffness`), compiled for batches
+  (``catenary.stiffness_kernels``, ``catenary.stiffness_compiled``) and for one pose
+  at a time in loops (:class:`PoseStiffness`, ``catenary.stiffness_loop``);
 - ``catenary.response``: natural frequencies, mode shapes and static deflection
   (:func:`natural_frequencies`, :func:`vibration_modes`, :func:`deflection`);
 - ``catenary.stiffness_maps``: the lowest frequency and the deflection over a grid
@@ -68,6 +70,7 @@ from .response import (
 )
 from .robot_stiffness import StiffnessResult, platform_stiffness, stiffness_analysis
 from .solve import ForcesResult, LengthResult, solve_forces, solve_length
+from .stiffness_loop import PoseStiffness
 from .stiffness_maps import StiffnessMap, plot_stiffness_map, stiffness_map
 from .timing import SagTimingResult, time_optimal_sag
 from .viz import (
@@ -93,6 +96,7 @@ __all__ = [
     "InvalidCableError",
     "InverseKinematicsResult",
     "LengthResult",
+    "PoseStiffness",
     "RobotScene",
     "SagTimingResult",
     "SagWorkspaceResult",

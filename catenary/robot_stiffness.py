@@ -69,6 +69,8 @@ from .geometry import (
     taut_catenaries,
 )
 from .inverse import inverse_kinematics
+from .stiffness_compiled import CatenaryState, CompiledBatch, batch_analysis
+from .stiffness_kernels import FALLBACK
 
 __all__ = [
     "MODELS",
@@ -82,6 +84,7 @@ __all__ = [
     "cross_matrix",
     "given_tensions",
     "platform_stiffness",
+    "reference_result",
     "state_result",
     "step_basis",
     "stiffness_analysis",
@@ -452,19 +455,24 @@ def _analysis(robot: CableRobot, poses: ArrayLike, tensions: ArrayLike | None,
               options: dict[str, Any], full: bool) -> StiffnessResult:
     """:func:`stiffness_analysis`; batches of :data:`COMPILED_MIN
     <tension_opt.kernels.launch.COMPILED_MIN>` poses and more through the kernels
-    (:func:`catenary.stiffness_compiled.batch_analysis`, where they cover the robot and the
-    model), whose ``cable_stiffness``, ``platform_forces``, ``tensions`` and ``lengths``
-    are left empty unless ``full``."""
+    (:func:`catenary.stiffness_compiled.batch_analysis`, where they cover the robot and
+    the model; the poses they leave by :func:`reference_result`); unless ``full``,
+    ``cable_stiffness``, ``platform_forces``, ``tensions`` and ``lengths`` are scratch."""
     if model not in MODELS:
         raise InvalidCableError(f'model must be "coupled" or "straight"; got model={model!r}')
     p = robot.as_poses(poses)
     solve = {"objective": objective, "backend": backend, "options": options}
     if compiled_for(len(p)):
-        # Imported here: the batch path builds on this module's numpy reference.
-        from .stiffness_compiled import batch_analysis
-
-        result = batch_analysis(robot, p, tensions, model, end, wrench, solve, full)
-        if result is not None:
+        T = None if tensions is None else given_tensions(robot, tensions, len(p))
+        batch = batch_analysis(robot, p, T, model, end, wrench, solve, full)
+        if batch is not None:
+            out = batch.out
+            result = StiffnessResult(out.stiffness, out.cable_stiffness, out.platform_forces,
+                                     out.tensions, out.lengths, out.equilibrium_residual,
+                                     batch.status, model)
+            left = np.flatnonzero(out.codes == FALLBACK)
+            if left.size:
+                _reference_into(result, robot, p, left, batch, end, wrench, full)
             return result
     planes = cable_planes(robot, p)
     if model == "straight":
@@ -487,6 +495,47 @@ def state_result(robot: CableRobot, p: FloatArray, planes: CablePlanes, state: C
                                     robot.required_wrench(p, wrench))
     return StiffnessResult(K, state.stiffness, state.forces, state.tensions, state.lengths,
                            residual, state.status, model)
+
+
+def reference_result(robot: CableRobot, p: FloatArray, model: str, status: NDArray[np.str_],
+                     given: FloatArray | None, state: CatenaryState | None, end: str,
+                     wrench: ArrayLike | None) -> StiffnessResult:
+    """The numpy reference of validated poses ``p`` (N, n) from the tensions ``given``
+    (N, m) or the catenaries ``state`` (as
+    :func:`catenary.stiffness_compiled.compiled_stiffness`) a kernel had, with their
+    ``status`` (N,) so far."""
+    planes = cable_planes(robot, p)
+    if model == "straight":
+        assert given is not None
+        c = straight_state(robot, p, given, wrench, {})
+        cables = CableState(c.forces, c.stiffness, c.tensions, c.lengths, status)
+    elif state is None:
+        assert given is not None
+        cables = coupled_state(robot, p, planes, given, "A" if end == "A" else "B", wrench,
+                               {})
+    else:
+        w, EA = cable_data(robot)
+        H, V_A, L0 = state[0], state[1][..., 2], state[2]
+        cables = catenary_state(planes, H, V_A, V_A + w * L0, L0, status, w, EA)
+    return state_result(robot, p, planes, cables, wrench, model)
+
+
+def _reference_into(result: StiffnessResult, robot: CableRobot, p: FloatArray,
+                    left: NDArray[np.intp], batch: CompiledBatch, end: str,
+                    wrench: ArrayLike | None, full: bool) -> None:
+    """The poses ``left`` of a compiled batch, by the numpy reference, into ``result``."""
+    if wrench is not None and np.ndim(wrench) == 2:
+        wrench = np.asarray(wrench, dtype=float)[left]
+    given, state = batch.given, batch.state
+    ref = reference_result(robot, p[left], result.model, result.status[left],
+                           None if given is None else given[left],
+                           None if state is None else (state[0][left], state[1][left],
+                                                       state[2][left]), end, wrench)
+    names = ["stiffness", "equilibrium_residual", "status"]
+    if full:
+        names += ["cable_stiffness", "platform_forces", "tensions", "lengths"]
+    for name in names:
+        getattr(result, name)[left] = getattr(ref, name)
 
 
 def platform_stiffness(

@@ -2,8 +2,10 @@
 (:mod:`catenary.stiffness_kernels`): the robot's constants packed once
 (:func:`pack`), which robots and models the kernels cover (:func:`kernel_model`), and
 one batch call (:func:`compiled_stiffness`) that returns the kernel's arrays and a
-code per pose; the poses coded :data:`~catenary.stiffness_kernels.FALLBACK` are left
-to the caller's numpy reference (:func:`catenary.robot_stiffness.stiffness_analysis`).
+code per pose, and the batch of :func:`catenary.stiffness_analysis` with its default
+tensions and statuses (:func:`batch_analysis`); the poses coded
+:data:`~catenary.stiffness_kernels.FALLBACK` are left to the caller's numpy reference
+(:func:`catenary.robot_stiffness.reference_result`).
 """
 
 from __future__ import annotations
@@ -21,22 +23,12 @@ from tension_opt.kernels.geometry import compiled_kind
 from tension_opt.kernels.launch import run
 from tension_opt.status import Status, status_array
 
-from .geometry import cable_data, cable_planes
+from .geometry import cable_data
 from .inverse import inverse_kinematics
-from .robot_stiffness import (
-    CableState,
-    StiffnessResult,
-    catenary_state,
-    coupled_state,
-    given_tensions,
-    state_result,
-    straight_state,
-)
 from .stiffness_kernels import (
     COUPLED_A,
     COUPLED_B,
     COUPLED_STATE,
-    FALLBACK,
     HEADER,
     NOT_RUN,
     STRAIGHT,
@@ -45,12 +37,13 @@ from .stiffness_kernels import (
 )
 
 __all__ = [
+    "CatenaryState",
+    "CompiledBatch",
     "CompiledStiffness",
     "batch_analysis",
     "compiled_stiffness",
     "kernel_model",
     "pack",
-    "reference_result",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -165,6 +158,13 @@ class CompiledStiffness:
     codes: NDArray[np.int64]
 
 
+def _writable(a: ArrayLike) -> FloatArray:
+    """``a`` as a C-contiguous, writable float array (the one array type the kernels are
+    compiled for: a read-only array would compile another specialisation)."""
+    out = np.ascontiguousarray(a, dtype=float)
+    return out if out.flags.writeable else out.copy()
+
+
 def compiled_stiffness(
     robot: CableRobot,
     data: FloatArray,
@@ -205,10 +205,10 @@ def compiled_stiffness(
     """
     N, n, m = poses.shape[0], robot.dof, robot.m
     rows = N if full else 1
-    g = np.zeros((1, m)) if given is None else np.ascontiguousarray(given, dtype=float)
+    g = np.zeros((1, m)) if given is None else _writable(given)
     if state is None:
         state = (np.zeros((1, m)), np.zeros((1, m, 3)), np.zeros((1, m)))
-    H, F, L0 = (np.ascontiguousarray(a, dtype=float) for a in state)
+    H, F, L0 = (_writable(a) for a in state)
     out = CompiledStiffness(
         np.empty((N, n, n)),
         np.empty((rows, m, 3, 3)),
@@ -225,8 +225,8 @@ def compiled_stiffness(
             N,
             data,
             model,
-            np.ascontiguousarray(poses, dtype=float),
-            np.ascontiguousarray(wrenches, dtype=float),
+            _writable(poses),
+            _writable(wrenches),
             g,
             H,
             F,
@@ -257,34 +257,57 @@ def _wrenches(robot: CableRobot, wrench: ArrayLike | None, N: int) -> FloatArray
     return np.ascontiguousarray(w.reshape(-1, n))
 
 
+@dataclass(frozen=True)
+class CompiledBatch:
+    """A batch through the kernels, before the poses they leave
+    (:func:`batch_analysis`).
+
+    Attributes
+    ----------
+    out : CompiledStiffness
+        The kernel's arrays and codes (stiffness NaN where ``status`` is no success).
+    status : ndarray of str, shape (N,)
+        ``"converged"`` (``"not_run"``) for given tensions, else the status of the
+        distribution or of the coupled inverse kinematics.
+    given : ndarray, shape (N, m), or None
+        The tensions the kernel had (N).
+    state : CatenaryState or None
+        The catenaries the kernel had (the coupled model's own equilibrium).
+    """
+
+    out: CompiledStiffness
+    status: NDArray[np.str_]
+    given: FloatArray | None
+    state: CatenaryState | None
+
+
 def batch_analysis(
     robot: CableRobot,
     p: FloatArray,
-    tensions: ArrayLike | None,
+    tensions: FloatArray | None,
     model: str,
     end: str,
     wrench: ArrayLike | None,
     solve: dict[str, Any],
     full: bool,
-) -> StiffnessResult | None:
+) -> CompiledBatch | None:
     """:func:`catenary.stiffness_analysis` of validated poses ``p`` (N, n) through the
     kernels, or None where they do not cover the robot, the model or the wrench.
 
-    The default tensions come as in the reference (the distribution for
-    ``"straight"``, the coupled inverse kinematics for ``"coupled"``), and so do the
-    statuses; the poses the kernel leaves (:data:`~catenary.stiffness_kernels.FALLBACK`)
-    are computed by the numpy reference. Unless ``full``, only ``stiffness``,
-    ``equilibrium_residual`` and ``status`` are the poses' (the cable arrays are one
-    pose's scratch), for :func:`catenary.platform_stiffness`.
+    ``tensions`` (N, m) are validated (:func:`catenary.robot_stiffness.given_tensions`)
+    or None: then they come as in the reference (the distribution for ``"straight"``,
+    the coupled inverse kinematics for ``"coupled"``), and so do the statuses. The
+    poses the kernel leaves (:data:`~catenary.stiffness_kernels.FALLBACK`) are the
+    caller's, for the numpy reference. Unless ``full``, the cable arrays are one pose's
+    scratch (for :func:`catenary.platform_stiffness`).
     """
     code = kernel_model(robot, model, tensions is not None, end)
     wrenches = _wrenches(robot, wrench, len(p))
     if code < 0 or wrenches is None:
         return None
     N = len(p)
-    given = state = None
+    given, state = tensions, None
     if tensions is not None:
-        given = given_tensions(robot, tensions, N)
         status = status_array(N, Status.CONVERGED)
     elif code == STRAIGHT:
         sol = tension_opt.distribute(
@@ -298,87 +321,7 @@ def batch_analysis(
         state = (ik.horizontal_tensions, ik.platform_forces, ik.lengths)
         status = np.asarray(ik.status).astype(str)
     out = compiled_stiffness(robot, pack(robot), code, p, wrenches, given, state, full)
-    if given is not None and tensions is not None:
+    if tensions is not None:
         status[out.codes == NOT_RUN] = Status.NOT_RUN
-    ok = np.isin(status, (Status.CONVERGED, Status.OPTIMAL))
-    out.stiffness[~ok] = np.nan
-    result = StiffnessResult(
-        out.stiffness,
-        out.cable_stiffness,
-        out.platform_forces,
-        out.tensions,
-        out.lengths,
-        out.equilibrium_residual,
-        status,
-        model,
-    )
-    left = np.flatnonzero(out.codes == FALLBACK)
-    if left.size:
-        _reference_into(result, robot, p, left, given, state, end, wrench, full)
-    return result
-
-
-def reference_result(
-    robot: CableRobot,
-    p: FloatArray,
-    model: str,
-    status: NDArray[np.str_],
-    given: FloatArray | None,
-    state: CatenaryState | None,
-    end: str,
-    wrench: ArrayLike | None,
-) -> StiffnessResult:
-    """The numpy reference of validated poses ``p`` (N, n) from the same tensions
-    ``given`` (N, m) or catenaries ``state`` (as :func:`compiled_stiffness`) a kernel
-    had, with their ``status`` (N,) so far."""
-    planes = cable_planes(robot, p)
-    if model == "straight":
-        assert given is not None
-        cables = straight_state(robot, p, given, wrench, {})
-        cables = CableState(
-            cables.forces, cables.stiffness, cables.tensions, cables.lengths, status
-        )
-    elif state is None:
-        assert given is not None and end in ("A", "B")
-        cables = coupled_state(robot, p, planes, given, "B" if end == "B" else "A", wrench, {})
-    else:
-        w, EA = cable_data(robot)
-        H, V_A, L0 = state[0], state[1][..., 2], state[2]
-        cables = catenary_state(planes, H, V_A, V_A + w * L0, L0, status, w, EA)
-    return state_result(robot, p, planes, cables, wrench, model)
-
-
-def _reference_into(
-    result: StiffnessResult,
-    robot: CableRobot,
-    p: FloatArray,
-    left: NDArray[np.intp],
-    given: FloatArray | None,
-    state: CatenaryState | None,
-    end: str,
-    wrench: ArrayLike | None,
-    full: bool,
-) -> None:
-    """The poses ``left`` of a compiled batch, by the numpy reference, into ``result``."""
-    sub_wrench = (
-        wrench if wrench is None or np.ndim(wrench) == 1 else np.asarray(wrench, dtype=float)[left]
-    )
-    sub_state = None if state is None else (state[0][left], state[1][left], state[2][left])
-    ref = reference_result(
-        robot,
-        p[left],
-        result.model,
-        result.status[left],
-        None if given is None else given[left],
-        sub_state,
-        end,
-        sub_wrench,
-    )
-    result.stiffness[left] = ref.stiffness
-    result.equilibrium_residual[left] = ref.equilibrium_residual
-    result.status[left] = ref.status
-    if full:
-        result.cable_stiffness[left] = ref.cable_stiffness
-        result.platform_forces[left] = ref.platform_forces
-        result.tensions[left] = ref.tensions
-        result.lengths[left] = ref.lengths
+    out.stiffness[~np.isin(status, (Status.CONVERGED, Status.OPTIMAL))] = np.nan
+    return CompiledBatch(out, status, given, state)

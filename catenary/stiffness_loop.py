@@ -29,8 +29,8 @@ from tension_opt.status import STATUS_DTYPE, Status
 from .coupled_ik import CoupledIK
 from .errors import InvalidCableError
 from .geometry import cable_data
-from .robot_stiffness import MODELS, StiffnessResult, stiffness_analysis
-from .stiffness_compiled import CatenaryState, kernel_model, pack, reference_result
+from .robot_stiffness import MODELS, StiffnessResult, reference_result, stiffness_analysis
+from .stiffness_compiled import CatenaryState, kernel_model, pack
 from .stiffness_kernels import (
     COUPLED_STATE,
     FALLBACK,
