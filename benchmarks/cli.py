@@ -387,10 +387,11 @@ def _study(args: argparse.Namespace) -> int:
 
 
 def _compile_first(progress: bool) -> None:
-    """The main job's compile step, before the cells: every kernel family compiled (or
-    loaded from the disk cache) in two processes, its own progress line, the seconds."""
+    """The main job's compile step, before the cells: the kernel families of tension
+    distribution (all its cells run) compiled, or loaded from the disk cache, in two
+    processes, with its own progress line and the seconds."""
     start = time.perf_counter()
-    took = warmup.warm(jobs=2, progress=progress)
+    took = warmup.warm(warmup.DISTRIBUTION_FAMILIES, jobs=2, progress=progress)
     slowest = max(took, key=took.__getitem__)
     print(f"kernels ready in {time.perf_counter() - start:.0f} s ({len(took)} families; "
           f"slowest {slowest}: {took[slowest]:.0f} s)", file=sys.stderr)

@@ -15,6 +15,7 @@ from typing import Any
 
 from benchmarks.plan import Cell
 from benchmarks.runner import CellResult, References, base_row, run_cell, short_message
+from tension_opt.warmup import DISTRIBUTION_FAMILIES
 
 __all__ = ["GRACE", "CellRunner", "Worker", "load_compiled_kernels", "run_isolated"]
 
@@ -101,9 +102,9 @@ def _worker_loop(conn: Any, cells: Sequence[Cell], time_limit: float, run: CellR
             return
 
 
-def load_compiled_kernels() -> None:
-    """Load the compiled kernels of every warm-up family
-    (:data:`tension_opt.warmup.FAMILIES`, the installed plugins' too) into this process,
+def load_compiled_kernels(names: Sequence[str] | None = None) -> None:
+    """Load the compiled kernels of the warm-up families ``names`` (default: every one of
+    :data:`tension_opt.warmup.FAMILIES`, the installed plugins' too) into this process,
     once (compiling them first where numba's disk cache is empty: tens of seconds; the
     main job runs ``python -m tension_opt warmup``'s parallel compile before).
 
@@ -112,15 +113,15 @@ def load_compiled_kernels() -> None:
     layer starts in the parent (one that did would not survive the fork: see
     :mod:`tension_opt.kernels.launch`).
     """
-    if _LOADED:
-        return
     from tension_opt import warmup
 
-    warmup.warm(jobs=1, progress=False)
-    _LOADED.append(True)
+    wanted = [n for n in (names or warmup.every_family()) if n not in _LOADED]
+    if wanted:
+        warmup.warm(wanted, jobs=1, progress=False)
+        _LOADED.update(wanted)
 
 
-_LOADED: list[bool] = []
+_LOADED: set[str] = set()
 
 
 def run_isolated(cells: Sequence[Cell], time_limit: float, grace: float = GRACE,
@@ -150,7 +151,7 @@ def run_isolated(cells: Sequence[Cell], time_limit: float, grace: float = GRACE,
         closed early or fails.
     """
     worker: Worker | None = None
-    load_compiled_kernels()
+    load_compiled_kernels(DISTRIBUTION_FAMILIES)
     try:
         for index, cell in enumerate(cells):
             worker = worker or Worker(cells, time_limit, run)

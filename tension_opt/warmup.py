@@ -26,7 +26,8 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 
 import numpy as np
 
-__all__ = ["FAMILIES", "PLUGINS", "register", "warm", "warm_family"]
+__all__ = ["DISTRIBUTION_FAMILIES", "FAMILIES", "PLUGINS", "every_family", "register", "warm",
+           "warm_family"]
 
 #: Packages whose kernel families the command line warms too, where installed.
 PLUGINS: tuple[str, ...] = ("catenary",)
@@ -133,6 +134,17 @@ FAMILIES: dict[str, Callable[[], None]] = {
 }
 
 
+#: The families of tension distribution (``distribute``, ``Distributor``, the backends'
+#: certificates): all a benchmark cell of ``python -m benchmarks`` runs.
+DISTRIBUTION_FAMILIES: tuple[str, ...] = (
+    "robot geometry",
+    "closed form",
+    "certified pass",
+    "real-time distributor",
+    "certificate of generic solvers",
+)
+
+
 def register(name: str, compile_family: Callable[[], None]) -> None:
     """Add a kernel family to :data:`FAMILIES` (a package built on ``tension_opt``
     registers its own when imported)."""
@@ -145,11 +157,20 @@ def _load_plugins() -> None:
             importlib.import_module(name)
 
 
+def every_family() -> list[str]:
+    """Names of every family: the toolkit's and the installed plugins'."""
+    _load_plugins()
+    return list(FAMILIES)
+
+
 def warm_family(name: str) -> float:
     """Run family ``name``'s calls in this process; the seconds they took."""
+    from tension_opt.kernels.first_use import compiling_ahead
+
     _load_plugins()
     start = time.perf_counter()
-    FAMILIES[name]()
+    with compiling_ahead():
+        FAMILIES[name]()
     return time.perf_counter() - start
 
 

@@ -13,9 +13,11 @@ from __future__ import annotations
 import logging
 import os
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
-__all__ = ["WARMUP_COMMAND", "announce"]
+__all__ = ["WARMUP_COMMAND", "announce", "compiling_ahead"]
 
 LOGGER = logging.getLogger("tension_opt")
 #: The command that compiles every kernel ahead.
@@ -32,6 +34,16 @@ def _cached(kernel: Any) -> bool:
         return bool(os.path.exists(kernel._cache._cache_file._index_path))
     except (AttributeError, TypeError):
         return True
+
+
+@contextmanager
+def compiling_ahead() -> Iterator[None]:
+    """Say nothing while the block runs: it is the warm-up, which compiles on purpose."""
+    before, _said[0] = _said[0], True
+    try:
+        yield
+    finally:
+        _said[0] = before
 
 
 def announce(family: str, *kernels: Any) -> None:

@@ -74,6 +74,26 @@ def test_warm_runs_the_families_and_times_them(monkeypatch: pytest.MonkeyPatch) 
         warmup.warm(jobs=0, progress=False)
 
 
+@pytest.mark.usefixtures("fresh_notice")
+def test_the_warm_up_announces_nothing_and_leaves_the_notice_as_it_was(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
+        caplog: pytest.LogCaptureFixture) -> None:
+    cold = _kernel(tmp_path / "missing.nbi")
+    monkeypatch.setattr(warmup, "FAMILIES", {"cold": lambda: first_use.announce("cold", cold)})
+    monkeypatch.setattr(warmup, "PLUGINS", ())
+    with caplog.at_level(logging.WARNING, logger="tension_opt"):
+        warmup.warm(jobs=1, progress=False)
+        assert not caplog.records
+        first_use.announce("another cold family", cold)  # a user's call afterwards
+    assert len(caplog.records) == 1 and "another cold family" in caplog.records[0].message
+
+
+def test_the_distribution_families_are_families_without_catenary_or_timing() -> None:
+    assert set(warmup.DISTRIBUTION_FAMILIES) <= set(warmup.every_family())
+    assert "catenary: single cable" in warmup.every_family()
+    assert not [n for n in warmup.DISTRIBUTION_FAMILIES if "catenary" in n or "timing" in n]
+
+
 def test_the_plugins_register_their_families() -> None:
     import catenary  # noqa: F401  (registers its families when imported)
 
