@@ -209,8 +209,10 @@ def catenary_rows() -> None:
     before = row("before: catenary.inverse_kinematics(compiled=False)",
                  lambda: catenary.inverse_kinematics(robot, pose, model="thesis",
                                                      compiled=False))
-    row("plain call: catenary.inverse_kinematics (compiled)",
+    row("plain call: catenary.inverse_kinematics (numpy below 16 cables)",
         lambda: catenary.inverse_kinematics(robot, pose, model="thesis"))
+    row("plain call: catenary.inverse_kinematics(compiled=True)",
+        lambda: catenary.inverse_kinematics(robot, pose, model="thesis", compiled=True))
     ik = ThesisIK(robot)
     after = row("after: catenary.thesis_ik.ThesisIK", lambda: ik(pose))
     ratio(before, after)

@@ -23,7 +23,11 @@ The thesis model solves one pose (n,) by compiled kernels
 they apply: backend ``"auto"`` or ``"closed_form"``, a non-sequential objective, an
 optimal straight-line distribution, every catenary settled by the kernel. Other poses
 take the numpy path, whose catenaries :func:`catenary.solve_length` solves with its own
-kernels; ``compiled=False`` runs the numpy reference throughout.
+kernels; ``compiled=False`` runs the numpy reference throughout. By default a call of
+fewer than :data:`tension_opt.kernels.launch.COMPILED_MIN` cables (16; the study
+robot's four cables on up to three poses) runs the numpy reference too, as a small
+plain ``distribute`` does: a first call compiles nothing (the kernels take seconds to
+compile), with the statuses of the kernels and their values to rounding.
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ import tension_opt
 from tension_opt import CableRobot, TensionProblem
 from tension_opt.backends import Backend, get_backend
 from tension_opt.distribution.solution import TensionSolution
+from tension_opt.kernels import launch
 from tension_opt.problem.form import Objective, as_problem
 from tension_opt.status import Status, status_array
 
@@ -170,7 +175,7 @@ def inverse_kinematics(
     tol: float = 1e-10,
     max_iter: int = 50,
     initial_tensions: ArrayLike | None = None,
-    compiled: bool = True,
+    compiled: bool | None = None,
     **options: Any,
 ) -> InverseKinematicsResult:
     """Unstretched cable lengths and cable forces of a batch of poses, with sag.
@@ -204,8 +209,11 @@ def inverse_kinematics(
         row is finite, even where the straight-line distribution is infeasible. Without
         it, poses whose straight-line distribution is infeasible start from the coupled
         capacity-margin search (sag can make them feasible).
-    compiled : bool
+    compiled : bool, optional
         Thesis model: compiled kernels where they apply (Notes); False: numpy throughout.
+        None (default): compiled for calls of at least
+        :data:`tension_opt.kernels.launch.COMPILED_MIN` cables (poses times cables),
+        numpy below, so that a first small call compiles nothing.
     **options
         Passed to the backend.
 
@@ -231,6 +239,8 @@ def inverse_kinematics(
         raise InvalidCableError(f'model must be "thesis" or "coupled"; got model={model!r}')
     check_robot(robot)
     check_settings(tol, max_iter, "tol")
+    if compiled is None:
+        compiled = _cables(poses, robot.m) >= launch.COMPILED_MIN
     if compiled and model == "thesis" and _one_pose(poses):
         result = thesis_result(thesis_solver(robot, objective, backend, options), poses,
                                wrench, t0)
@@ -238,6 +248,15 @@ def inverse_kinematics(
             return result
     return _batch(robot, poses, model, objective, backend, wrench, initial_tensions,
                   dict(tol=tol, max_iter=max_iter, compiled=compiled), options, t0)
+
+
+def _cables(poses: ArrayLike, m: int) -> int:
+    """Cables of a call: ``m`` per pose (as many as can be told before the checks)."""
+    try:
+        shape = np.shape(poses)
+    except (ValueError, TypeError):  # ragged: the numpy path raises the package's error
+        return m
+    return m * (shape[0] if len(shape) > 1 else 1)
 
 
 def _one_pose(poses: ArrayLike) -> bool:
