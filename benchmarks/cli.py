@@ -43,6 +43,7 @@ import pandas as pd
 
 import tension_opt
 from benchmarks import harness, report, studies
+from benchmarks.isolation import CELL_FAMILIES
 from benchmarks.scenarios import PROBLEMS, SCENARIOS
 from benchmarks.study_points import ROBOT_OVERRIDES, parameter_names
 from tension_opt import warmup
@@ -387,11 +388,11 @@ def _study(args: argparse.Namespace) -> int:
 
 
 def _compile_first(progress: bool) -> None:
-    """The main job's compile step, before the cells: the kernel families of tension
-    distribution (all its cells run) compiled, or loaded from the disk cache, in two
-    processes, with its own progress line and the seconds."""
+    """The main job's compile step, before the cells: the kernel families its cells run
+    (:data:`benchmarks.isolation.CELL_FAMILIES`) compiled, or loaded from the disk cache,
+    in two processes, with its own progress line and the seconds."""
     start = time.perf_counter()
-    took = warmup.warm(warmup.DISTRIBUTION_FAMILIES, jobs=2, progress=progress)
+    took = warmup.warm(CELL_FAMILIES, jobs=2, progress=progress)
     slowest = max(took, key=took.__getitem__)
     print(f"kernels ready in {time.perf_counter() - start:.0f} s ({len(took)} families; "
           f"slowest {slowest}: {took[slowest]:.0f} s)", file=sys.stderr)

@@ -17,7 +17,12 @@ from benchmarks.plan import Cell
 from benchmarks.runner import CellResult, References, base_row, run_cell, short_message
 from tension_opt.warmup import DISTRIBUTION_FAMILIES
 
-__all__ = ["GRACE", "CellRunner", "Worker", "load_compiled_kernels", "run_isolated"]
+#: The kernel families a cell runs: tension distribution, and the single-cable catenary
+#: of the sag columns (:func:`benchmarks.metrics.thesis_sag`).
+CELL_FAMILIES: tuple[str, ...] = (*DISTRIBUTION_FAMILIES, "catenary: single cable")
+
+__all__ = ["CELL_FAMILIES", "GRACE", "CellRunner", "Worker", "load_compiled_kernels",
+           "run_isolated"]
 
 #: Extra seconds before an isolated cell that overran its time limit is killed.
 GRACE = 5.0
@@ -151,7 +156,7 @@ def run_isolated(cells: Sequence[Cell], time_limit: float, grace: float = GRACE,
         closed early or fails.
     """
     worker: Worker | None = None
-    load_compiled_kernels(DISTRIBUTION_FAMILIES)
+    load_compiled_kernels(CELL_FAMILIES)
     try:
         for index, cell in enumerate(cells):
             worker = worker or Worker(cells, time_limit, run)
