@@ -27,6 +27,7 @@ from tension_opt.certify.certificate import (
     certify_form,
     primal_residual_of,
 )
+from tension_opt.distribution.sensitivity import Sensitivity, tension_jacobian
 from tension_opt.errors import InvalidInputError
 from tension_opt.status import STATUS_DTYPE, Status, StatusCodes
 from tension_opt.tolerances import DEFAULT_TARGET, FEASIBILITY_TOL, accuracy_target
@@ -335,6 +336,20 @@ class TensionSolution:
         multipliers = None if self.multipliers is None else Multipliers(
             *(held[f"multipliers.{k}"] for k in _MULTIPLIER_PARTS))
         return replace(self, multipliers=multipliers, **{k: held[k] for k in PER_POSE})
+
+    def jacobian(self, wrt: str, *, robot: Any = None, poses: Any = None, wrench: Any = None,
+                 previous: Any = None) -> Sensitivity:
+        """Derivatives of the optimal tensions by ``wrt``, by implicit differentiation of
+        the KKT conditions at the certified active set
+        (:func:`tension_opt.distribution.sensitivity.tension_jacobian`, which documents
+        the arguments, shapes and per-pose statuses).
+
+        ``wrt`` is ``"wrench"``, ``"pose"``, ``"t_min"``, ``"t_max"``,
+        ``"drawing_points"`` or ``"attachment_points"``; the pose and the points need
+        ``robot=`` and ``poses=``, as does a solution solved in chunks (no form kept).
+        """
+        return tension_jacobian(self, wrt, robot=robot, poses=poses, wrench=wrench,
+                                previous=previous)
 
     def __repr__(self) -> str:
         counts = pd.Series([str(s) for s in self.status]).value_counts().to_dict()
