@@ -79,9 +79,9 @@ WRT = ("wrench", "pose", "t_min", "t_max", "drawing_points", "attachment_points"
 SENSITIVITY_STATUSES = ("ok", "non_unique", "degenerate", "not_optimal")
 _OK, _NON_UNIQUE, _DEGENERATE, _NOT_OPTIMAL = range(4)
 #: Distance (scaled: reference tensions) within which a point is on a bound or row.
-ACTIVE_TOL = 1e-6
+ACTIVE_TOL = 1e-5
 #: Size (scaled) beyond which a multiplier counts as nonzero.
-MULTIPLIER_TOL = 1e-6
+MULTIPLIER_TOL = 1e-5
 #: Largest 1-norm condition number of a KKT matrix taken as nonsingular.
 COND_MAX = 1e10
 _NEEDS_ROBOT = ("pose", "drawing_points", "attachment_points")
