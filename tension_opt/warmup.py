@@ -82,11 +82,22 @@ def _certified_pass() -> None:
 
 
 def _distributor() -> None:
+    from tension_opt.backends.registry import available_backends
     from tension_opt.distribution.distributor import Distributor
+    from tension_opt.problem.form import TensionProblem
     from tension_opt.robot import presets
 
-    Distributor(presets.algae_harvester())(_study_poses(1)[0])
-    Distributor(presets.cogiro(), "min_norm")(_spatial_poses(1)[0])
+    study, cogiro = presets.algae_harvester(), presets.cogiro()
+    # The certified kernels (tension_opt.kernels.distributor): one pose, a stream, and
+    # independent poses each with its own previous tensions.
+    Distributor(study)(_study_poses(1)[0])
+    Distributor(cogiro, "min_norm")(_spatial_poses(1)[0])
+    smoothed = Distributor(study, TensionProblem("min_norm", smoothing=1.0))
+    poses = _study_poses(4)
+    smoothed(poses)
+    smoothed(poses, previous=np.full((len(poses), study.m), 1e3))
+    if "qpsolvers:daqp" in available_backends():  # the compiled DAQP path
+        Distributor(study, "min_norm", "qpsolvers:daqp")(poses[0])
 
 
 def _generic_backends() -> None:

@@ -361,8 +361,12 @@ class QpsolversBackend(Backend):
                                 batch.beq], axis=1)
         sense = np.zeros(k + g + n, dtype=c_int)
         sense[k + g:] = 5
+        # An objective whose linear term is beyond DAQP's arithmetic is handed over
+        # divided by a power of two (exact; the multipliers multiplied back below).
+        factor = objective_factors(batch.c)
+        c = np.array(batch.c) * factor[:, None]
         H = np.zeros((N, k, k))
-        H[:, np.arange(k), np.arange(k)] = batch.P
+        H[:, np.arange(k), np.arange(k)] = batch.P * factor[:, None]
         x_all, status, iters = pose_loop_result(N, k)
         lam = np.full((N, k + g + n), np.nan)
         extras: dict[str, Any] = {}
@@ -374,20 +378,21 @@ class QpsolversBackend(Backend):
 
             flags = np.zeros(N, dtype=np.int64)
             counts = np.zeros(N, dtype=np.int64)
-            quadprog_batch(H, np.array(batch.c), rows, upper, lower, sense, x_all, lam,
-                           flags, counts, structs)
+            quadprog_batch(H, c, rows, upper, lower, sense, x_all, lam, flags, counts,
+                           structs)
             iters[:] = counts
             failed = flags <= 0
             x_all[failed], lam[failed] = np.nan, np.nan
         else:
             with quiet_solvers():
-                flags = self._daqp_loop(H, batch.c.copy(), rows, upper, lower, sense,
-                                        settings, warm, x_all, lam, iters, extras)
+                flags = self._daqp_loop(H, c, rows, upper, lower, sense, settings, warm,
+                                        x_all, lam, iters, extras)
         good = flags > 0
         status[good] = Status.OPTIMAL
         for j in np.flatnonzero(~good):
             status[j] = _DAQP_EXIT.get(int(flags[j]), Status.SOLVER_ERROR)
         elapsed = time.perf_counter() - t0
+        lam /= factor[:, None]
         # DAQP's multipliers: H x + f + A' lam = 0, bounds first (negative at a lower
         # bound), then the inequality rows, then the equations: the certificate's signs.
         duals = Multipliers(lam[:, k + g:], lam[:, k:k + g], lam[:, :k])
@@ -423,6 +428,29 @@ class QpsolversBackend(Backend):
                 lam[i] = info["lam"]
                 x_prev = x
         return flags
+
+
+def objective_factors(c: NDArray) -> NDArray:
+    """Per pose, the power of two DAQP's objective is multiplied by before it is solved:
+    1 where the scaled problem's largest linear term ``|c_i|`` is at most
+    :data:`~tension_opt.kernels.dense_qp.LINEAR_CAP`, else the one that brings it within
+    (the numpy reference of :func:`tension_opt.kernels.dense_qp.objective_factor`).
+
+    Parameters
+    ----------
+    c : ndarray, shape (N, k)
+        Linear terms of the scaled problems.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+    """
+    from tension_opt.kernels.dense_qp import LINEAR_CAP
+
+    largest = np.abs(c).max(axis=1, initial=0.0)
+    over = np.isfinite(largest) & (largest > LINEAR_CAP)
+    exponent = np.ceil(np.log2(np.where(over, largest, LINEAR_CAP) / LINEAR_CAP))
+    return np.where(over, np.exp2(-exponent), 1.0)
 
 
 def _keep_duals(duals: Multipliers, i: int, sol: Any, batch: ScaledBatch, bounded: bool

@@ -35,7 +35,7 @@ from tension_opt.robot import CableRobot
 from tension_opt.status import STATUS_DTYPE, StatusCodes, status_codes
 from tension_opt.tolerances import accuracy_target
 
-__all__ = ["CertifiedBatch", "CertifiedPlan", "certified_plan", "pack_certified"]
+__all__ = ["CertifiedBatch", "CertifiedPlan", "certified_plan", "pack_certified", "pack_realtime"]
 
 
 @dataclass(frozen=True)
@@ -229,3 +229,25 @@ def pack_certified(robot: Any, problem: Any, target: float) -> NDArray | None:
     if code == MAX:
         vmax = float(np.abs(data[HEADER + 8 * m:HEADER + 9 * m]).max(initial=0.0)) or 1.0
     return np.ascontiguousarray(np.concatenate([data, [target, code, vmax], w, r]))
+
+
+def pack_realtime(robot: Any, problem: Any, target: float) -> NDArray:
+    """The packed problem of the real-time path (:mod:`tension_opt.kernels.distributor`):
+    :func:`pack_certified`'s layout for any objective the compiled closed form covers,
+    smoothing and rate limit included (:func:`~tension_opt.kernels.closed_form.pack`
+    holds them). For an objective other than the package's five, whose value the
+    kernels do not measure, the objective's code, weights and target tensions are
+    stand-ins (min-sum, ones, zeros)."""
+    from tension_opt.kernels.certified import LINEAR
+    from tension_opt.kernels.closed_form import HEADER, pack_problem
+
+    data = pack_certified(robot, problem, target)
+    if data is not None:
+        return data
+    m = robot.m
+    packed = pack_problem(robot, problem, target)
+    vmax = 0.0
+    if packed[7] != 0.0:  # a min-max term: its largest weight, as pack_certified's
+        vmax = float(np.abs(packed[HEADER + 8 * m:HEADER + 9 * m]).max(initial=0.0)) or 1.0
+    return np.ascontiguousarray(np.concatenate([packed, [target, LINEAR, vmax], np.ones(m),
+                                                np.zeros(m)]))

@@ -7,7 +7,15 @@ the last answer of a stream) so that a call costs one compiled call and little e
 
 - Problems the compiled closed form covers (null space of dimension 1 or 2; min-sum,
   min-norm, pseudo-inverse, centred, and min-max in dimension 1; smoothing and rate
-  limits) run in compiled code, allocating nothing but the tensions returned.
+  limits) run in compiled code, allocating nothing but the tensions returned, and each
+  answer is certified in the same call as :func:`tension_opt.distribute` certifies it
+  (:mod:`tension_opt.kernels.distributor`: the primal residual, dual residual and
+  duality gap of the pose's scaled problem at the ``accuracy`` target, with the
+  equilibrium and bounds within the feasibility tolerance): ``optimal`` means
+  certified, an answer whose certificate misses is ``inaccurate``. A batch of
+  independent poses goes through the certified pass of large batches
+  (:mod:`tension_opt.distribution.certified`) where the problem has no smoothing or
+  rate limit.
 - ``backend="qpsolvers:daqp"`` with a quadratic objective (min-norm, pseudo-inverse,
   centred, or any smoothed pose) builds the scaled dense QP in compiled code, keeps a
   DAQP model per thread warm-started from the previous pose, and certifies DAQP's
@@ -36,7 +44,9 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt.backends.base import Backend
 from tension_opt.backends.settings import check_options, solver_options
 from tension_opt.checks import as_finite, as_float_array
-from tension_opt.distribution.entry import distribute
+from tension_opt.distribution.certified import CertifiedPlan, certified_plan, pack_realtime
+from tension_opt.distribution.entry import CHUNK_SIZE, distribute
+from tension_opt.distribution.solution import TensionSolution
 from tension_opt.errors import InvalidInputError
 from tension_opt.problem.form import TensionProblem, as_problem
 from tension_opt.robot import CableRobot
@@ -44,6 +54,8 @@ from tension_opt.status import STATUS_DTYPE, Status
 from tension_opt.tolerances import accuracy_target
 
 __all__ = ["Distributor", "RealtimeResult"]
+
+_NAN = float("nan")
 
 _STATUS = (Status.OPTIMAL, Status.INFEASIBLE, Status.UNBOUNDED, Status.INACCURATE,
            Status.SOLVER_ERROR)
@@ -71,6 +83,10 @@ class RealtimeResult:
         For infeasible poses where known, the smallest largest bound violation (N).
     compiled : bool or ndarray of bool, shape (N,)
         Whether the compiled kernel answered (else the numpy path did).
+    primal_residual, dual_residual, duality_gap : float or ndarray, shape (N,)
+        The certificate, as :attr:`tension_opt.TensionSolution.primal_residual` ...
+        (scaled measures; NaN where there is no solution): ``optimal`` only where all
+        three are within the accuracy target.
     """
 
     tensions: NDArray
@@ -79,12 +95,24 @@ class RealtimeResult:
     residual: Any
     infeasibility: Any
     compiled: Any
+    primal_residual: Any = _NAN
+    dual_residual: Any = _NAN
+    duality_gap: Any = _NAN
 
     @property
     def success(self) -> Any:
         """Whether the pose (each pose) was solved to optimality."""
         return np.asarray(self.status == Status.OPTIMAL) if np.ndim(self.status) else (
             self.status == Status.OPTIMAL)
+
+    def certified(self, accuracy: object = None) -> Any:
+        """Whether the certificate of the pose (each pose) meets the target of
+        ``accuracy`` (default 1e-7, as :func:`tension_opt.distribute`'s option;
+        NaN fails)."""
+        t = accuracy_target(accuracy)
+        ok = (np.asarray(self.primal_residual) <= t) & (np.asarray(self.dual_residual) <= t) \
+            & (np.asarray(self.duality_gap) <= t)
+        return ok if np.ndim(self.status) else bool(ok)
 
 
 class Distributor:
@@ -140,22 +168,29 @@ class Distributor:
         self._target = accuracy_target(self.options.get("accuracy"))
         self._data: NDArray | None = None
         self._daqp: dict[str, Any] | None = None
+        self._plan: CertifiedPlan | None = None
         closed = self._closed_form_path()
         if form.G is None and (closed or self._daqp_path()):
             from tension_opt.kernels import closed_form
+            from tension_opt.kernels import distributor as kernels
             from tension_opt.kernels.first_use import announce
 
-            announce("real-time distributor", closed_form.solve_one)
-            self._data = self._pack()
-            self._kernels = closed_form
-            self._work_size = int(closed_form.work_size(robot.m, robot.dof))
+            announce("real-time distributor", kernels.certified_one)
+            self._data = pack_realtime(robot, self.problem, self._target)
+            self._kernels = kernels
             if closed:
                 from tension_opt.kernels.launch import entry_point
 
+                self._work_size = int(kernels.certified_work_size(robot.m, robot.dof))
                 self._solve_one = entry_point(
-                    closed_form.solve_one, self._data, self._no_wrench, self._no_wrench,
+                    kernels.certified_one, self._data, self._no_wrench, self._no_wrench,
                     self._no_prev, False, np.empty(self._work_size), np.empty(robot.m))
+                # Independent poses of a problem without smoothing or rate limit: the
+                # certified pass of large batches.
+                self._plan = certified_plan(robot, self.problem, backend,
+                                            self.options.get("accuracy"))
             else:
+                self._work_size = int(closed_form.work_size(robot.m, robot.dof))
                 self._daqp = {"settings": solver_options("daqp", self.options.get("accuracy")),
                               "warm": bool(self.options.get("warm_start", True))}
 
@@ -197,12 +232,6 @@ class Distributor:
         return objective.name != "min_max" and (not objective.linear
                                                 or bool(self.problem.smoothing))
 
-    def _pack(self) -> NDArray:
-        """The constant data of the kernels (:func:`closed_form.pack_problem`)."""
-        from tension_opt.kernels.closed_form import pack_problem
-
-        return pack_problem(self.robot, self.problem, self._target)
-
     def _thread_work(self) -> Any:
         """This thread's work space (a float array, or the DAQP workspace), made once."""
         if self._daqp is None:
@@ -217,10 +246,12 @@ class Distributor:
 
     @property
     def closed_form_data(self) -> NDArray | None:
-        """The packed problem (:func:`tension_opt.kernels.closed_form.pack`) of a
-        distributor that answers by the compiled closed form, for compiled callers
-        that call :func:`~tension_opt.kernels.closed_form.solve_one` themselves; None
-        for the other paths. Read only."""
+        """The packed problem of a distributor that answers by the compiled closed form
+        (:func:`tension_opt.distribution.certified.pack_realtime`, whose first part is
+        :func:`tension_opt.kernels.closed_form.pack`'s), for compiled callers that call
+        :func:`~tension_opt.kernels.closed_form.solve_one` or
+        :func:`~tension_opt.kernels.distributor.certified_one` themselves; None for the
+        other paths. Read only."""
         return self._data if self._daqp is None else None
 
     # ------------------------------------------------------------------- calls
@@ -256,7 +287,9 @@ class Distributor:
             return result
         return RealtimeResult(result.tensions[0], Status(result.status[0]),
                               bool(result.unique[0]), float(result.residual[0]),
-                              float(result.infeasibility[0]), bool(result.compiled[0]))
+                              float(result.infeasibility[0]), bool(result.compiled[0]),
+                              float(result.primal_residual[0]),
+                              float(result.dual_residual[0]), float(result.duality_gap[0]))
 
     def _stream_start(self, previous: ArrayLike | None) -> NDArray | None:
         """The tensions a sequential problem smooths against, or None."""
@@ -287,17 +320,20 @@ class Distributor:
         if self._daqp is None:
             # Every argument is a contiguous float64 vector (the callers see to it):
             # the types the entry point was made for.
-            code, unique, res, infeas = self._solve_one(
+            code, unique, res, infeas, primal, dual, gap = self._solve_one(
                 self._data, p, w, prev if has_prev else self._no_prev, has_prev, work, T)
         else:
-            code, res = work.solve(self._data, p, w, prev if has_prev else self._no_prev,
-                                   has_prev, self._target, T)
-            unique, infeas = True, np.nan
+            code, res, primal, dual, gap = work.solve(
+                self._data, p, w, prev if has_prev else self._no_prev, has_prev,
+                self._target, T)
+            unique, infeas = True, _NAN
         if code < _BAD_INPUT:
-            status = _STATUS[code]
-            if self._sequential and code == 0:
+            # A solved pose (optimal, or inaccurate by its certificate) goes on the
+            # stream, as the plain sequence goes on from it.
+            if self._sequential and (code == 0 or code == 3):
                 local.last = T.copy()
-            return RealtimeResult(T, status, unique, res, infeas, True)
+            return RealtimeResult(T, _STATUS[code], unique, res, infeas, True, primal, dual,
+                                  gap)
         if code == _BAD_INPUT:
             self.robot.as_poses(p)
             as_finite("wrench", w)
@@ -306,7 +342,8 @@ class Distributor:
         status = Status(sol.status[0])
         self._remember(status, sol.tensions[0])
         return RealtimeResult(sol.tensions[0], status, bool(sol.unique[0]),
-                              float(sol.residual[0]), float(sol.infeasibility[0]), False)
+                              float(sol.residual[0]), float(sol.infeasibility[0]), False,
+                              *_certificate_of(sol, 0))
 
     def _remember(self, status: Status, tensions: NDArray) -> None:
         if self._sequential and status == Status.OPTIMAL:
@@ -330,6 +367,10 @@ class Distributor:
             return self._daqp_stream(p, w, wrench, previous)
         if stream:
             return self._sequence(p, w, wrench, self._stream_start(previous))
+        if self._plan is not None:
+            if independent and previous is not None:
+                as_finite("previous", previous)  # checked, as the other paths do
+            return self._certified_pass(p, w)
         return self._batch(p, w, wrench, previous if independent else None)
 
     def _daqp_stream(self, p: NDArray, w: NDArray, wrench: ArrayLike | None,
@@ -346,13 +387,15 @@ class Distributor:
         T = np.empty((N, m))
         status = np.empty(N, dtype=STATUS_DTYPE)
         unique, compiled = np.empty(N, dtype=bool), np.empty(N, dtype=bool)
-        residual, infeasibility = np.empty(N), np.empty(N)
+        info = np.empty((N, 5))
         for k in range(N):
             one = self._one(poses[k], rows[k], None if wrench is None else rows[k], None)
-            T[k], status[k], unique[k] = one.tensions, one.status.value, one.unique
-            residual[k], infeasibility[k], compiled[k] = (one.residual, one.infeasibility,
-                                                          one.compiled)
-        return RealtimeResult(T, status, unique, residual, infeasibility, compiled)
+            T[k], status[k], unique[k], compiled[k] = (one.tensions, one.status.value,
+                                                       one.unique, one.compiled)
+            info[k] = (one.residual, one.infeasibility, one.primal_residual,
+                       one.dual_residual, one.duality_gap)
+        return RealtimeResult(T, status, unique, info[:, 0], info[:, 1], compiled,
+                              info[:, 2], info[:, 3], info[:, 4])
 
     def _wrenches(self, wrench: ArrayLike | None) -> NDArray:
         """External wrenches (N, n) of a batch, or (1, n) for one for every pose (their
@@ -361,16 +404,50 @@ class Distributor:
             return self._no_wrench[None, :]
         return np.ascontiguousarray(as_finite("wrench", wrench).reshape(-1, self.robot.dof))
 
+    def _certified_pass(self, p: NDArray, w: NDArray) -> RealtimeResult:
+        """Independent poses of a problem without smoothing or rate limit through the
+        certified pass of large batches (:class:`~tension_opt.distribution.certified.
+        CertifiedBatch`, in tasks on up to ``chunk_threads()`` threads, as
+        :func:`tension_opt.distribute` runs it); the poses it leaves by the numpy path."""
+        from tension_opt.distribution.certified import CertifiedBatch
+        from tension_opt.distribution.chunks import (
+            CERTIFIED_TASK,
+            certified_chunks,
+            chunk_threads,
+        )
+
+        assert self._plan is not None  # see _many
+        batch = CertifiedBatch(self._plan, p, w)
+        left: list[NDArray | slice] = []
+
+        def numpy_path(poses: NDArray | slice) -> TensionSolution:
+            left.append(poses)  # (list.append holds across the pass's threads)
+            rows = w if len(w) == 1 else w[poses]
+            return distribute(self.robot, p[poses], self.problem, self.backend,
+                              wrench=rows, **self.options)
+
+        sol = certified_chunks(batch, CERTIFIED_TASK, CHUNK_SIZE, chunk_threads(),
+                               numpy_path, self.problem)
+        compiled = np.ones(len(p), dtype=bool)
+        for poses in left:
+            compiled[poses] = False
+        return RealtimeResult(sol.tensions, sol.status, sol.unique, sol.residual,
+                              sol.infeasibility, compiled, sol.primal_residual,
+                              sol.dual_residual, sol.duality_gap)
+
     def _batch(self, p: NDArray, w: NDArray, wrench: ArrayLike | None,
                previous: ArrayLike | None) -> RealtimeResult:
+        """Independent poses, each with its own previous tensions (or none), through the
+        certified real-time kernel; the poses it leaves by the numpy path."""
         N, m = len(p), self.robot.m
         has_prev = previous is not None
         prev = (np.ascontiguousarray(np.broadcast_to(as_finite("previous", previous), (N, m)))
                 if previous is not None else self._no_prev[None, :])
-        T, info, codes = np.empty((N, m)), np.empty((N, 3)), np.empty(N, dtype=np.int64)
+        T, info = np.empty((N, m)), np.empty((N, self._kernels.INFO))
+        codes = np.empty(N, dtype=np.int64)
         from tension_opt.kernels import launch
 
-        launch.run(self._kernels.solve_batch, self._kernels.solve_batch_serial, N,
+        launch.run(self._kernels.certified_batch, self._kernels.certified_batch_serial, N,
                    self._data, np.ascontiguousarray(p), w, prev, has_prev, T, info, codes)
         redo = np.flatnonzero(codes >= _BAD_INPUT)
         return self._numpy(p, wrench, previous, redo, (T, info, codes))
@@ -381,7 +458,8 @@ class Distributor:
         """Results of a batch: the compiled ones, and ``redo`` poses by the numpy path."""
         N, m = len(p), self.robot.m
         if compiled is None:
-            T, info, codes = np.empty((N, m)), np.empty((N, 3)), np.zeros(N, dtype=np.int64)
+            T, info = np.empty((N, m)), np.empty((N, _INFO))
+            codes = np.zeros(N, dtype=np.int64)
         else:
             T, info, codes = compiled
         status = _STATUS_VALUES[np.minimum(codes, len(_STATUS))]
@@ -391,20 +469,21 @@ class Distributor:
             sol = distribute(self.robot, p[redo], self.problem, self.backend,
                              wrench=sub(wrench), previous=sub(previous), **self.options)
             T[redo], status[redo] = sol.tensions, sol.status
-            info[redo] = np.column_stack([sol.unique, sol.residual, sol.infeasibility])
+            info[redo] = _info_of(sol)
             done[redo] = False
             if self.problem.is_sequential and (previous is None or np.ndim(previous) < 2):
                 ok = np.flatnonzero(sol.status == Status.OPTIMAL)
                 if len(ok):
                     self._local.last = sol.tensions[ok[-1]].copy()
-        return RealtimeResult(T, status, info[:, 0] != 0.0, info[:, 1], info[:, 2], done)
+        return _result(T, status, info, done)
 
     def _sequence(self, p: NDArray, w: NDArray, wrench: ArrayLike | None,
                   start: NDArray | None) -> RealtimeResult:
-        """A stream in order through the compiled kernel; a pose it declines is solved
+        """A stream in order through the certified kernel; a pose it declines is solved
         by the numpy path against the same previous tensions, and the stream goes on."""
         N, m = len(p), self.robot.m
-        T, info, codes = np.empty((N, m)), np.empty((N, 3)), np.empty(N, dtype=np.int64)
+        T, info = np.empty((N, m)), np.empty((N, _INFO))
+        codes = np.empty(N, dtype=np.int64)
         last = np.full(m, np.nan) if start is None else np.array(start, dtype=float)
         done = np.ones(N, dtype=bool)
         fallback: dict[int, Status] = {}
@@ -414,17 +493,16 @@ class Distributor:
         assert data is not None  # the compiled path has its data (see _many)
         k = 0
         while k < N:
-            k = self._kernels.solve_sequence(data, poses, w, last,
-                                             bool(np.isfinite(last).all()), T, info, codes,
-                                             k, work)
+            k = self._kernels.certified_sequence(data, poses, w, last,
+                                                 bool(np.isfinite(last).all()), T, info,
+                                                 codes, k, work)
             if k < N:
                 prev = last if np.isfinite(last).all() else None
                 # The pose's wrench: its row, or the one for every pose (w is (1, n)).
                 sol = distribute(self.robot, p[k], self.problem, self.backend,
                                  wrench=None if wrench is None else w[min(k, len(w) - 1)],
                                  previous=prev, **self.options)
-                T[k], info[k] = sol.tensions[0], (sol.unique[0], sol.residual[0],
-                                                  sol.infeasibility[0])
+                T[k], info[k] = sol.tensions[0], _info_of(sol)[0]
                 fallback[k] = Status(sol.status[0])
                 done[k] = False
                 if sol.status[0] == Status.OPTIMAL:
@@ -435,4 +513,29 @@ class Distributor:
         status = _STATUS_VALUES[np.minimum(codes, len(_STATUS))]
         for i, value in fallback.items():
             status[i] = value
-        return RealtimeResult(T, status, info[:, 0] != 0.0, info[:, 1], info[:, 2], done)
+        return _result(T, status, info, done)
+
+
+#: Columns of a batch's per-pose results (:data:`tension_opt.kernels.distributor.INFO`).
+_INFO = 6
+
+
+def _certificate_of(sol: TensionSolution, k: int) -> tuple[float, float, float]:
+    """The certificate of pose ``k`` of a solution, as floats."""
+    fields = (sol.primal_residual, sol.dual_residual, sol.duality_gap)
+    return tuple(_NAN if x is None else float(x[k]) for x in fields)  # type: ignore[return-value]
+
+
+def _info_of(sol: TensionSolution) -> NDArray:
+    """A solution's per-pose results (N, 6): unique, residual, infeasibility and the
+    certificate's three measures, the columns of the kernels' ``info``."""
+    nan = np.full(sol.N, np.nan)
+    return np.column_stack([sol.unique, sol.residual, sol.infeasibility,
+                            *(nan if x is None else x for x in (
+                                sol.primal_residual, sol.dual_residual, sol.duality_gap))])
+
+
+def _result(T: NDArray, status: NDArray, info: NDArray, compiled: NDArray) -> RealtimeResult:
+    """The :class:`RealtimeResult` of a batch from its per-pose results (:func:`_info_of`)."""
+    return RealtimeResult(T, status, info[:, 0] != 0.0, info[:, 1], info[:, 2], compiled,
+                          info[:, 3], info[:, 4], info[:, 5])

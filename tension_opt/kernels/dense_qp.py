@@ -43,12 +43,48 @@ from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
 from tension_opt.kernels.scaling import pose_scaling
 from tension_opt.tolerances import ROW_FLOOR, UB_SHARE
 
-__all__ = ["BIG", "DaqpPose", "qp_build", "qp_judge", "qp_problem", "qp_size", "qp_verdict",
-           "qp_views", "sequence_pose", "sequence_size", "sequence_verdict", "solve_pose",
+__all__ = ["BIG", "LINEAR_CAP", "DaqpPose", "objective_factor", "qp_build", "qp_judge",
+           "qp_problem", "qp_size", "qp_verdict", "qp_views", "scale_objective",
+           "sequence_pose", "sequence_size", "sequence_verdict", "solve_pose",
            "solve_sequence"]
 
 #: DAQP's infinity.
 BIG = 1e30
+#: Largest linear term of the scaled QP handed to the solver. A term far above the
+#: quadratic one (a min-norm ``reference`` of 1e18 N: about 1e15 against 1) is beyond
+#: DAQP's arithmetic: it called feasible poses infeasible. Such an objective is handed
+#: over divided by a power of two (:func:`objective_factor`), which moves no optimum and
+#: is exact; the multipliers are multiplied back before the certificate is measured.
+LINEAR_CAP = 2.0**20
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def objective_factor(f: NDArray) -> float:
+    """The power of two DAQP's objective (``H``, ``f``) is multiplied by before it is
+    solved: 1 where the largest linear term ``|f_i|`` is at most :data:`LINEAR_CAP`, else
+    the one that brings it within (numpy reference:
+    :func:`tension_opt.backends.qpsolvers_backend.objective_factors`)."""
+    largest = 0.0
+    for i in range(f.size):
+        largest = max(largest, abs(f[i]))
+    factor = 1.0
+    if largest > LINEAR_CAP and math.isfinite(largest):
+        factor = 2.0 ** -math.ceil(math.log2(largest / LINEAR_CAP))
+    if f.size < 0:  # never: f read after the branch (see tension_opt.kernels)
+        factor = np.nan
+    return factor
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def scale_objective(H: NDArray, f: NDArray, lam: NDArray, by: float) -> None:
+    """Multiply DAQP's objective (the diagonal of ``H``, ``f``) and the multipliers
+    ``lam`` by ``by`` (a power of two, exact), in place: before the solve with
+    :func:`objective_factor`, after it with its inverse."""
+    for i in range(f.size if by != 1.0 else 0):
+        H[i, i] *= by
+        f[i] *= by
+    for j in range(lam.size if by != 1.0 else 0):
+        lam[j] *= by
 
 
 @njit(cache=True, error_model="numpy")
@@ -141,14 +177,17 @@ def qp_views(qp: NDArray, m: int, n: int) -> tuple[NDArray, NDArray, NDArray, ND
 @njit(cache=True, error_model="numpy")
 def qp_judge(data: NDArray, work: NDArray, qp: NDArray, x: NDArray, lam: NDArray,
              s: float, target: float, T: NDArray, sense: NDArray, warm: bool
-             ) -> tuple[int, float]:
+             ) -> tuple[int, float, float, float, float]:
     """Tensions ``T = s x`` (m,) of DAQP's scaled solution ``x``, and whether they are
     certified optimal with DAQP's multipliers ``lam`` (bounds, then equations).
 
     With ``warm``, the bounds active at this answer (a nonzero multiplier) are marked
     in DAQP's ``sense`` (m + n,) as the working set the next pose starts from.
-    Returns ``(code, residual)``: code 0 (optimal) or ``CODE_FALLBACK`` (the numpy
-    path judges the pose); the equilibrium residual ``||A T - b||`` (N, N m).
+    Returns ``(code, residual, primal, dual, gap)``: code 0 (optimal) or
+    ``CODE_FALLBACK`` (the numpy path judges the pose); the equilibrium residual
+    ``||A T - b||`` (N, N m); the certificate's primal residual, dual residual and
+    relative duality gap (:mod:`tension_opt.certify.certificate`; NaN where not
+    measured).
     """
     m, n = int(data[1]), int(data[2])
     H, f, Ad, upper, _ = qp_views(qp, m, n)
@@ -164,18 +203,19 @@ def qp_judge(data: NDArray, work: NDArray, qp: NDArray, x: NDArray, lam: NDArray
 @njit(cache=True, error_model="numpy")
 def qp_verdict(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, tol_factor: float,
                H: NDArray, f: NDArray, Ad: NDArray, upper: NDArray, x: NDArray,
-               lam: NDArray, s: float, target: float, T: NDArray) -> tuple[int, float]:
+               lam: NDArray, s: float, target: float, T: NDArray
+               ) -> tuple[int, float, float, float, float]:
     """:func:`qp_judge` of a pose's form (``A``, ``b``, ``lb``, ``ub``; ``tol_factor``
     the feasibility tolerance's factor of the packed problem) and its QP (``H``, ``f``,
     ``Ad``, ``upper``, :func:`qp_views`), without the working set."""
     n, m = A.shape
     for i in range(m):
         if not (math.isfinite(x[i]) and math.isfinite(lam[i])):
-            return CODE_FALLBACK, np.nan
+            return CODE_FALLBACK, np.nan, np.nan, np.nan, np.nan
         T[i] = x[i] * s
     code, res = judge(A, b, lb, ub, T, tol_factor * pose_scales(A, b, lb)[1])
     if code != 0:
-        return CODE_FALLBACK, res
+        return CODE_FALLBACK, res, np.nan, np.nan, np.nan
     primal = dual = 0.0
     gap = objective = 0.0
     for k in range(n):
@@ -200,14 +240,14 @@ def qp_verdict(A: NDArray, b: NDArray, lb: NDArray, ub: NDArray, tol_factor: flo
         objective += (0.5 * H[i, i] * x[i] + f[i]) * x[i]
     relative = abs(gap) / max(1.0, abs(objective))
     if primal <= target and dual <= target and relative <= target:
-        return 0, res
-    return CODE_FALLBACK, res
+        return 0, res, primal, dual, relative
+    return CODE_FALLBACK, res, primal, dual, relative
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def solve_pose(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray, has_prev: bool,
                target: float, T: NDArray, floats: NDArray, sense: NDArray, structs: NDArray,
-               warm: bool) -> tuple[int, float, int]:
+               warm: bool) -> tuple[int, float, int, float, float, float]:
     """One pose through DAQP's C solver in one compiled call: :func:`qp_problem`,
     ``daqp_quadprog`` (:func:`~tension_opt.kernels.daqp_native.quadprog`), and
     :func:`qp_judge`.
@@ -235,8 +275,9 @@ def solve_pose(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray, has
     Returns
     -------
     tuple
-        ``(code, residual, iterations)``: as :meth:`DaqpPose.solve`, and DAQP's
-        iterations (-1 when DAQP was not called).
+        ``(code, residual, iterations, primal, dual, gap)``: as
+        :meth:`DaqpPose.solve`, with DAQP's iterations (-1 when DAQP was not called)
+        third.
     """
     m, n = int(data[1]), int(data[2])
     size = qp_size(m, n)
@@ -244,14 +285,18 @@ def solve_pose(data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray, has
     work = floats[size + 2 * m + n:]
     code, s = qp_problem(data, pose, wrench, prev, has_prev, work, qp)
     if code:
-        return code, np.nan, -1
+        return code, np.nan, -1, np.nan, np.nan, np.nan
     H, f, Ad, upper, lower = qp_views(qp, m, n)
+    factor = objective_factor(f)
+    scale_objective(H, f, lam[:0], factor)
     flag, iterations = daqp_native.quadprog(H, f, Ad, upper, lower, sense, x, lam, structs)
+    scale_objective(H, f, lam, 1.0 / factor)  # the QP and multipliers as built
     if flag <= 0:  # infeasible, unbounded, iteration cap: the numpy path reports it
         sense[:m] = 0  # and the next pose starts cold
-        return CODE_FALLBACK, np.nan, iterations
-    code, res = qp_judge(data, work, qp, x, lam, s, target, T, sense, warm)
-    return code, res, iterations
+        return CODE_FALLBACK, np.nan, iterations, np.nan, np.nan, np.nan
+    code, res, primal, dual, gap = qp_judge(data, work, qp, x, lam, s, target, T, sense,
+                                            warm)
+    return code, res, iterations, primal, dual, gap
 
 
 def sequence_size(m: int, n: int) -> int:
@@ -373,7 +418,10 @@ def solve_sequence(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0: NDArr
         if code:
             return k
         sense[:m] = 0  # cold, as a batch of one pose starts
+        factor = objective_factor(f)
+        scale_objective(H, f, lam[:0], factor)
         flag, count = daqp_native.quadprog(H, f, Ad, upper, lower, sense, x, lam, structs)
+        scale_objective(H, f, lam, 1.0 / factor)
         if flag <= 0 or _pose_verdict(A, b, k, floats, tol_factor, target, s, T[k]):
             return k
         iterations[k] = count
@@ -443,26 +491,30 @@ class DaqpPose:
             self._solve: Any = daqp.solve
 
     def solve(self, data: NDArray, pose: NDArray, wrench: NDArray, prev: NDArray,
-              has_prev: bool, target: float, T: NDArray) -> tuple[int, float]:
-        """Tensions of one pose written to ``T`` (m,); returns ``(code, residual)`` with
-        code 0 (certified optimal), ``CODE_FALLBACK`` or ``CODE_BAD_INPUT``. ``data``,
+              has_prev: bool, target: float, T: NDArray
+              ) -> tuple[int, float, float, float, float]:
+        """Tensions of one pose written to ``T`` (m,); returns ``(code, residual, primal,
+        dual, gap)``: code 0 (certified optimal), ``CODE_FALLBACK`` or
+        ``CODE_BAD_INPUT``, the equilibrium residual (N, N m) and the certificate's three
+        measures with DAQP's multipliers (NaN where not measured). ``data``,
         ``pose``, ``wrench``, ``prev`` and ``T`` are contiguous float64 vectors (the
         compiled call checks no type)."""
         if self._structs is not None:
-            code, res, iterations = self._solve_pose(
+            code, res, iterations, primal, dual, gap = self._solve_pose(
                 data, pose, wrench, prev, bool(has_prev), float(target), T, self.floats,
                 self.sense, self._structs, self.warm)
             if iterations >= 0:
                 self.iterations = iterations
-            return code, res
+            return code, res, primal, dual, gap
         code, s = qp_problem(data, pose, wrench, prev, has_prev, self.work, self.qp)
         if code:
-            return code, np.nan
-        x, _, flag, info = self._solve(self.H, self.f, self.Ad, self.upper, self.lower,
-                                       self.sense, **self.settings)
+            return code, np.nan, np.nan, np.nan, np.nan
+        factor = float(objective_factor(self.f))
+        x, _, flag, info = self._solve(self.H * factor, self.f * factor, self.Ad, self.upper,
+                                       self.lower, self.sense, **self.settings)
         self.iterations = info["iterations"]
         if flag <= 0:  # infeasible, unbounded, iteration cap: the numpy path reports it
             self.sense[:len(T)] = 0  # and the next pose starts cold
-            return CODE_FALLBACK, np.nan
-        return qp_judge(data, self.work, self.qp, x, info["lam"], s, target, T, self.sense,
-                        self.warm)
+            return CODE_FALLBACK, np.nan, np.nan, np.nan, np.nan
+        return qp_judge(data, self.work, self.qp, x, info["lam"] / factor, s, target, T,
+                        self.sense, self.warm)
