@@ -60,7 +60,6 @@ from tension_opt.robot import CableRobot
 from tension_opt.robot.derivatives import cable_frames, column_derivatives, pose_derivatives
 
 if TYPE_CHECKING:
-    from tension_opt.distribution.solution import TensionSolution
     from tension_opt.problem.form import StandardForm
 
 __all__ = [
@@ -124,7 +123,7 @@ class Sensitivity:
 
 
 def tension_jacobian(
-    solution: TensionSolution,
+    solution: Any,
     wrt: str,
     *,
     robot: CableRobot | None = None,
@@ -158,36 +157,7 @@ def tension_jacobian(
         For an unknown ``wrt``, a solution without multipliers, or a missing or
         mismatched ``robot`` / ``poses``.
     """
-    if wrt not in WRT:
-        raise InvalidInputError(f"wrt must be one of {list(WRT)}, got {wrt!r}")
-    if solution.multipliers is None:
-        raise InvalidInputError(
-            "the solution holds no multipliers: differentiate a solution that "
-            "tension_opt.distribute returned (its certificate keeps them)"
-        )
-    needs_robot = wrt in _NEEDS_ROBOT or solution.form is None
-    if needs_robot and (not isinstance(robot, CableRobot) or poses is None):
-        why = (
-            f"wrt={wrt!r} moves the geometry"
-            if wrt in _NEEDS_ROBOT
-            else "the solution keeps no form (a batch solved in chunks)"
-        )
-        raise InvalidInputError(
-            f"{why}: pass robot= (a CableRobot) and poses= (the poses solved), e.g. "
-            f"solution.jacobian({wrt!r}, robot=robot, poses=poses)"
-        )
-    form = solution.form
-    p = None
-    if needs_robot:
-        assert robot is not None and poses is not None
-        p = robot.as_poses(poses)
-        if len(p) != solution.N:
-            raise InvalidInputError(
-                f"poses has {len(p)} rows, the solution {solution.N}: pass the poses solved"
-            )
-    if form is None:
-        assert robot is not None and p is not None
-        form = solution.problem.standard_form(robot, p, wrench, previous)
+    form, p = _checked_form(solution, wrt, robot, poses, wrench, previous)
     N, m = solution.N, form.m
     batch = scaled_batch(form)
     mult = solution.multipliers
@@ -228,6 +198,50 @@ def tension_jacobian(
     return Sensitivity(jac, np.asarray(SENSITIVITY_STATUSES)[code], wrt)
 
 
+def _checked_form(
+    solution: Any,
+    wrt: str,
+    robot: CableRobot | None,
+    poses: ArrayLike | None,
+    wrench: ArrayLike | None,
+    previous: ArrayLike | None,
+) -> tuple[StandardForm, NDArray | None]:
+    """The arguments of :func:`tension_jacobian` checked: the solution's form (rebuilt
+    from ``robot`` and ``poses`` where it keeps none) and the validated poses (None
+    where not needed)."""
+    if wrt not in WRT:
+        raise InvalidInputError(f"wrt must be one of {list(WRT)}, got {wrt!r}")
+    if solution.multipliers is None:
+        raise InvalidInputError(
+            "the solution holds no multipliers: differentiate a solution that "
+            "tension_opt.distribute returned (its certificate keeps them)"
+        )
+    needs_robot = wrt in _NEEDS_ROBOT or solution.form is None
+    if needs_robot and (not isinstance(robot, CableRobot) or poses is None):
+        why = (
+            f"wrt={wrt!r} moves the geometry"
+            if wrt in _NEEDS_ROBOT
+            else "the solution keeps no form (a batch solved in chunks)"
+        )
+        raise InvalidInputError(
+            f"{why}: pass robot= (a CableRobot) and poses= (the poses solved), e.g. "
+            f"solution.jacobian({wrt!r}, robot=robot, poses=poses)"
+        )
+    form = solution.form
+    p = None
+    if needs_robot:
+        assert robot is not None and poses is not None
+        p = robot.as_poses(poses)
+        if len(p) != solution.N:
+            raise InvalidInputError(
+                f"poses has {len(p)} rows, the solution {solution.N}: pass the poses solved"
+            )
+    if form is None:
+        assert robot is not None and p is not None
+        form = solution.problem.standard_form(robot, p, wrench, previous)
+    return form, p
+
+
 def _shape(wrt: str, N: int, m: int, n: int) -> tuple[int, ...]:
     if wrt in ("wrench", "pose"):
         return (N, m, n)
@@ -239,9 +253,7 @@ def _shape(wrt: str, N: int, m: int, n: int) -> tuple[int, ...]:
 class _Kkt:
     """The KKT matrices of the certified poses ``sub`` of a form at their active sets."""
 
-    def __init__(
-        self, form: StandardForm, batch: Any, solution: TensionSolution, sub: NDArray | slice
-    ) -> None:
+    def __init__(self, form: StandardForm, batch: Any, solution: Any, sub: NDArray | slice) -> None:
         self.form, self.sub = form, sub
         scaling = batch.scaling if batch.scaling is not None else compiled_scaling(form)
         self.s = batch.scale[sub]
