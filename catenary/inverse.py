@@ -205,15 +205,12 @@ def inverse_kinematics(
     max_iter : int
         Coupled model: iteration limit of the sequential convex programming.
     initial_tensions : array_like, shape (N, m), optional
-        Coupled model: platform-end tensions (N) to start from, for the poses whose
-        row is finite, even where the straight-line distribution is infeasible. Without
-        it, poses whose straight-line distribution is infeasible start from the coupled
-        capacity-margin search (sag can make them feasible).
+        Coupled model: platform-end tensions (N) to start from where a row is finite,
+        even where the straight-line distribution is infeasible (without it, those poses
+        start from the coupled capacity-margin search: sag can make them feasible).
     compiled : bool, optional
-        Thesis model: compiled kernels where they apply (Notes); False: numpy throughout.
-        None (default): compiled for calls of at least
-        :data:`tension_opt.kernels.launch.COMPILED_MIN` cables (poses times cables),
-        numpy below, so that a first small call compiles nothing.
+        Thesis model: compiled kernels where they apply (Notes); False: numpy throughout;
+        None (default): as True from ``COMPILED_MIN`` cables on (module notes).
     **options
         Passed to the backend.
 
@@ -239,8 +236,7 @@ def inverse_kinematics(
         raise InvalidCableError(f'model must be "thesis" or "coupled"; got model={model!r}')
     check_robot(robot)
     check_settings(tol, max_iter, "tol")
-    if compiled is None:
-        compiled = _cables(poses, robot.m) >= launch.COMPILED_MIN
+    compiled = _cables(poses, robot.m) >= launch.COMPILED_MIN if compiled is None else compiled
     if compiled and model == "thesis" and _one_pose(poses):
         result = thesis_result(thesis_solver(robot, objective, backend, options), poses,
                                wrench, t0)
