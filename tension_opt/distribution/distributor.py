@@ -345,8 +345,19 @@ class Distributor:
                               float(sol.residual[0]), float(sol.infeasibility[0]), False,
                               *_certificate_of(sol, 0))
 
+    def _goes_on(self, status: Any) -> Any:
+        """Whether a stream goes on from an answer of the numpy path with this status
+        (each of an array): as the plain sequence goes on from every pose its backend
+        solved, an optimal one, and on the compiled paths (closed form, DAQP, whose
+        backends call every solved pose optimal) also one the certificate downgraded
+        to inaccurate."""
+        ok = np.asarray(status == Status.OPTIMAL)
+        if self._data is not None:
+            ok = ok | np.asarray(status == Status.INACCURATE)
+        return ok if np.ndim(status) else bool(ok)
+
     def _remember(self, status: Status, tensions: NDArray) -> None:
-        if self._sequential and status == Status.OPTIMAL:
+        if self._sequential and self._goes_on(status):
             self._local.last = tensions.copy()
 
     def _many(self, p: NDArray, wrench: ArrayLike | None,
@@ -472,7 +483,7 @@ class Distributor:
             info[redo] = _info_of(sol)
             done[redo] = False
             if self.problem.is_sequential and (previous is None or np.ndim(previous) < 2):
-                ok = np.flatnonzero(sol.status == Status.OPTIMAL)
+                ok = np.flatnonzero(self._goes_on(sol.status))
                 if len(ok):
                     self._local.last = sol.tensions[ok[-1]].copy()
         return _result(T, status, info, done)
@@ -505,7 +516,7 @@ class Distributor:
                 T[k], info[k] = sol.tensions[0], _info_of(sol)[0]
                 fallback[k] = Status(sol.status[0])
                 done[k] = False
-                if sol.status[0] == Status.OPTIMAL:
+                if self._goes_on(Status(sol.status[0])):
                     last = sol.tensions[0].copy()
                 k += 1
         if np.isfinite(last).all():

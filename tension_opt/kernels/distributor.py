@@ -207,7 +207,11 @@ def _pose(
     problem's arrays (:func:`_constants`), ``form`` and ``cert`` the views of
     :func:`_views`. Returns ``(code, unique, residual, infeasibility, primal, dual,
     gap)`` (NaN where unknown) and writes the tensions ``T`` (m,) (NaN where the pose
-    has none)."""
+    has none).
+
+    A hot numerical kernel: every step of a pose in one pass (inlined into each caller,
+    so that no array crosses a call), on the caller's work arrays.
+    """
     anchors, attachments, com, q0, c0, v, lb0, ub0, rate = consts
     A, b, q, c, lb, ub, rest = form
     rows, P, cs, Aeq, beq, G, h, lbs, ubs, x, y, mu, z, B, H, u, grad, shrink, station, e = cert
