@@ -18,6 +18,9 @@ A :class:`tension_opt.CableRobot` whose cables sag (built on ``tension_opt``):
 - ``catenary.forward``: sag-aware forward kinematics (:func:`forward_kinematics`);
 - ``catenary.margin``: the coupled capacity margin (:func:`coupled_margin`);
 - ``catenary.workspace``: the coupled-sag workspace (:func:`sag_workspace`).
+- ``catenary.interference``: certified closest distances between sagging cables
+  (:func:`cable_clearance`, :func:`curve_distance`) and the interference-free
+  workspace with sag (:func:`interference_free_workspace`).
 - ``catenary.robot_stiffness``: the platform's stiffness with straight or sagging
   elastic cables (:func:`platform_stiffness`), compiled for batches
   (``catenary.stiffness_kernels``, ``catenary.stiffness_compiled``) and for one pose
@@ -51,6 +54,13 @@ from .elastic import (
 )
 from .errors import CatenaryError, InvalidCableError
 from .forward import ForwardKinematicsResult, forward_kinematics
+from .interference import (
+    CatenaryCurves,
+    CurveDistance,
+    cable_clearance,
+    curve_distance,
+    interference_free_workspace,
+)
 from .inverse import InverseKinematicsResult, inverse_kinematics
 from .margin import coupled_margin
 from .materials import (
@@ -90,7 +100,9 @@ from .workspace import SagWorkspaceResult, sag_workspace
 __all__ = [
     "MATERIALS",
     "CableMaterial",
+    "CatenaryCurves",
     "CatenaryError",
+    "CurveDistance",
     "ForcesResult",
     "ForwardKinematicsResult",
     "InvalidCableError",
@@ -107,13 +119,16 @@ __all__ = [
     "animate",
     "animation_figure",
     "breaking_load",
+    "cable_clearance",
     "cable_properties",
     "compliance_ellipsoid",
     "coupled_margin",
+    "curve_distance",
     "deflection",
     "flexibility",
     "forward_kinematics",
     "get_material",
+    "interference_free_workspace",
     "inverse_kinematics",
     "length_derivative",
     "mass_matrix",

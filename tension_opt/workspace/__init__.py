@@ -19,6 +19,9 @@ The package holds one job per module:
 - :mod:`~tension_opt.workspace.compute`: :func:`wrench_feasible_workspace`, chunks of
   poses over an executor (in-process, a process pool or Dask; the chunks, and so the
   result, do not depend on the executor);
+- :mod:`~tension_opt.workspace.interference`: :func:`cable_clearance`,
+  :func:`segment_distance` (straight cables' closest distances);
+- :mod:`~tension_opt.workspace.interference_free`: :func:`interference_free_workspace`;
 - :mod:`~tension_opt.workspace.plots`: :func:`plot_slice`, :func:`plot_workspace_3d`.
 
 The margin itself is :func:`tension_opt.workspace.margin.capacity_margin`, also importable from
@@ -40,6 +43,16 @@ from tension_opt.workspace.grid import (
     sample_poses,
     workspace_grid,
 )
+from tension_opt.workspace.interference import (
+    CableClearance,
+    SegmentDistance,
+    cable_clearance,
+    segment_distance,
+)
+from tension_opt.workspace.interference_free import (
+    InterferenceResult,
+    interference_free_workspace,
+)
 from tension_opt.workspace.margin import LP_CAP, capacity_margin, margin_lp, margin_solve
 from tension_opt.workspace.plots import plot_slice, plot_workspace_3d
 from tension_opt.workspace.result import WorkspaceResult
@@ -51,10 +64,15 @@ __all__ = [
     "LP_CAP",
     "MAX_GRID_POINTS",
     "RANK_TOL",
+    "CableClearance",
     "Grid",
+    "InterferenceResult",
+    "SegmentDistance",
     "WorkspaceResult",
+    "cable_clearance",
     "capacity_margin",
     "cell_widths",
+    "interference_free_workspace",
     "margin_lp",
     "margin_solve",
     "on_drawing_point",
@@ -62,6 +80,7 @@ __all__ = [
     "plot_workspace_3d",
     "prepare",
     "sample_poses",
+    "segment_distance",
     "workspace_grid",
     "wrench_feasible_workspace",
 ]

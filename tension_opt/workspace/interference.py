@@ -76,8 +76,7 @@ class SegmentDistance:
     point_b: FloatArray
 
 
-def segment_distance(p0: ArrayLike, p1: ArrayLike, q0: ArrayLike, q1: ArrayLike
-                     ) -> SegmentDistance:
+def segment_distance(p0: ArrayLike, p1: ArrayLike, q0: ArrayLike, q1: ArrayLike) -> SegmentDistance:
     """Exact closest points of segments ``p0 p1`` and ``q0 q1``, vectorised.
 
     Parameters
@@ -91,8 +90,7 @@ def segment_distance(p0: ArrayLike, p1: ArrayLike, q0: ArrayLike, q1: ArrayLike
         Distances (m), fractions ``s, t`` and the closest points. Where the minimum is
         not unique (parallel overlapping segments) one of the closest pairs is given.
     """
-    p0, p1, q0, q1 = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in
-                                           (p0, p1, q0, q1)))
+    p0, p1, q0, q1 = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (p0, p1, q0, q1)))
     d1, d2, r = p1 - p0, q1 - q0, p0 - q0
     a = np.einsum("...i,...i->...", d1, d1)
     e = np.einsum("...i,...i->...", d2, d2)
@@ -118,9 +116,13 @@ def segment_distance(p0: ArrayLike, p1: ArrayLike, q0: ArrayLike, q1: ArrayLike
     dist[..., 0] = np.where(inside, dist[..., 0], np.inf)
     k = np.argmin(dist, axis=-1)[..., None]
     pick = np.take_along_axis
-    return SegmentDistance(pick(dist, k, -1)[..., 0], pick(s, k, -1)[..., 0],
-                           pick(t, k, -1)[..., 0], pick(pa, k[..., None], -2)[..., 0, :],
-                           pick(pb, k[..., None], -2)[..., 0, :])
+    return SegmentDistance(
+        pick(dist, k, -1)[..., 0],
+        pick(s, k, -1)[..., 0],
+        pick(t, k, -1)[..., 0],
+        pick(pa, k[..., None], -2)[..., 0, :],
+        pick(pb, k[..., None], -2)[..., 0, :],
+    )
 
 
 def cable_pairs(m: int) -> NDArray[np.intp]:
@@ -152,11 +154,13 @@ def shared_ends(robot: CableRobot, pairs: NDArray[np.intp]) -> tuple[NDArray, ND
 
 def check_trim(shared_trim: object) -> float:
     """``shared_trim`` as a float in ``[0, 0.5)``, or the package's error naming it."""
-    if not is_number(shared_trim) or not 0 <= float(shared_trim) < 0.5:  # type: ignore[arg-type]
+    value = float(shared_trim) if is_number(shared_trim) else np.nan  # type: ignore[arg-type]
+    if not 0 <= value < 0.5:
         raise InvalidInputError(
             f"shared_trim must be a number in [0, 0.5) (share of each cable's length left "
-            f"out at a shared end), got {shared_trim!r}")
-    return float(shared_trim)  # type: ignore[arg-type]
+            f"out at a shared end), got {shared_trim!r}"
+        )
+    return value
 
 
 def pair_ranges(at_platform: NDArray, at_anchor: NDArray, trim: float) -> FloatArray:
@@ -217,24 +221,48 @@ class CableClearance:
         return iter((self.clearance, self.pair))
 
     @classmethod
-    def from_pairs(cls, distances: FloatArray, lower: FloatArray, points: FloatArray,
-                   arc: FloatArray, pairs: NDArray[np.intp], shared: NDArray[np.bool_],
-                   model: str, extras: dict[str, Any] | None = None) -> CableClearance:
+    def from_pairs(
+        cls,
+        distances: FloatArray,
+        lower: FloatArray,
+        points: FloatArray,
+        arc: FloatArray,
+        pairs: NDArray[np.intp],
+        shared: NDArray[np.bool_],
+        model: str,
+        extras: dict[str, Any] | None = None,
+    ) -> CableClearance:
         """The result from per-pair values: the smallest pair of each pose picked out."""
         N = distances.shape[0]
         if pairs.shape[0] == 0:  # one cable: nothing to meet
-            return cls(np.full(N, np.inf), np.full((N, 2), -1, dtype=np.intp), distances,
-                       lower, points, arc, pairs, shared, model, extras or {})
+            return cls(
+                np.full(N, np.inf),
+                np.full((N, 2), -1, dtype=np.intp),
+                distances,
+                lower,
+                points,
+                arc,
+                pairs,
+                shared,
+                model,
+                extras or {},
+            )
         filled = np.where(np.isnan(distances), np.inf, distances)
         k = np.argmin(filled, axis=1)
         clearance = distances[np.arange(N), k]
         clearance = np.where(np.isnan(distances).any(axis=1), np.nan, clearance)
-        return cls(clearance, pairs[k], distances, lower, points, arc, pairs, shared, model,
-                   extras or {})
+        return cls(
+            clearance, pairs[k], distances, lower, points, arc, pairs, shared, model, extras or {}
+        )
 
 
-def cable_clearance(robot: CableRobot, poses: ArrayLike, model: str = "straight", *,
-                    shared_trim: float = SHARED_TRIM) -> CableClearance:
+def cable_clearance(
+    robot: CableRobot,
+    poses: ArrayLike,
+    model: str = "straight",
+    *,
+    shared_trim: float = SHARED_TRIM,
+) -> CableClearance:
     """Smallest distance between every two straight cables of a batch of poses.
 
     Parameters
@@ -265,7 +293,8 @@ def cable_clearance(robot: CableRobot, poses: ArrayLike, model: str = "straight"
     if model != "straight":
         raise InvalidInputError(
             f"model must be 'straight' here, got {model!r}; sagging cables ('coupled', "
-            "'thesis') are catenary.cable_clearance(robot, poses, model=...)")
+            "'thesis') are catenary.cable_clearance(robot, poses, model=...)"
+        )
     trim = check_trim(shared_trim)
     geometry = robot.cable_geometry(poses, check=False)
     A = geometry.attachment_points  # (N, m, 3)
@@ -281,20 +310,28 @@ def cable_clearance(robot: CableRobot, poses: ArrayLike, model: str = "straight"
     (a0, a1, alo, ahi), (b0, b1, blo, bhi) = ends
     res = segment_distance(a0, a1, b0, b1)
     L = geometry.lengths
-    arc = np.stack([(alo[:, 0] + res.s * (ahi - alo)[:, 0]) * L[:, pairs[:, 0]],
-                    (blo[:, 0] + res.t * (bhi - blo)[:, 0]) * L[:, pairs[:, 1]]], axis=-1)
+    arc = np.stack(
+        [
+            (alo[:, 0] + res.s * (ahi - alo)[:, 0]) * L[:, pairs[:, 0]],
+            (blo[:, 0] + res.t * (bhi - blo)[:, 0]) * L[:, pairs[:, 1]],
+        ],
+        axis=-1,
+    )
     points = np.stack([res.point_a, res.point_b], axis=-2)
-    return CableClearance.from_pairs(res.distance, res.distance.copy(), points, arc, pairs,
-                                     at_platform | at_anchor, "straight")
+    return CableClearance.from_pairs(
+        res.distance, res.distance.copy(), points, arc, pairs, at_platform | at_anchor, "straight"
+    )
 
 
 def check_clearance(clearance: object) -> float:
     """``clearance`` (m) as a finite float >= 0, or the package's error naming it."""
-    if not is_number(clearance) or not np.isfinite(clearance) or clearance < 0:  # type: ignore[operator, arg-type]
+    value = float(clearance) if is_number(clearance) else np.nan  # type: ignore[arg-type]
+    if not np.isfinite(value) or value < 0:
         raise InvalidInputError(
             f"clearance must be a finite number >= 0 (smallest allowed distance between "
-            f"cables, m; e.g. the cable diameter), got {clearance!r}")
-    return float(clearance)  # type: ignore[arg-type]
+            f"cables, m; e.g. the cable diameter), got {clearance!r}"
+        )
+    return value
 
 
 def hull_vertices(robot: CableRobot, platform_hull: ArrayLike | None) -> FloatArray:
@@ -309,5 +346,6 @@ def hull_vertices(robot: CableRobot, platform_hull: ArrayLike | None) -> FloatAr
     if V.ndim != 2 or V.shape[1] != 3 or V.shape[0] < 1:
         raise InvalidInputError(
             f"platform_hull must have shape (k, 3) (vertices in the platform frame, m), "
-            f"got {V.shape}")
+            f"got {V.shape}"
+        )
     return V

@@ -1,0 +1,546 @@
+"""Interference of sagging cables: certified closest distances between catenaries.
+
+Cable ``i`` hangs in its vertical plane as the elastic catenary
+
+    r_i(s) = A_i + x(s) e_h + z(s) e_z + (s / L0) c,        0 <= s <= L0
+
+``s`` its unstretched arc length from the attachment point ``A_i``, ``x(s), z(s)`` the
+spans of the piece of cable from ``A_i`` to ``s`` (:func:`catenary.elastic.evaluate`),
+and ``c`` the solver's tiny closure residual at the drawing point spread along the
+cable (as :mod:`catenary.viz` draws it). Its tangent is
+``r' = (1 + T/EA) (H e_h + V e_z) / T + c / L0`` with ``V = V_A + w s`` and
+``T = |(H, V)|``, so
+
+- ``|r'| <= lam = 1 + T_max / EA + |c| / L0`` (1 for an inextensible cable);
+- ``|r''| <= K = w / EA + (1 + T_max / EA) w H / T_min^2``.
+
+:func:`curve_distance` finds the smallest distance between two such curves in three
+steps, vectorised over every pair and pose:
+
+1. **bracket**: both curves sampled at ``samples`` points; every piece between two
+   samples is replaced by its chord, and the chords of every two pieces are compared
+   exactly (:func:`tension_opt.workspace.segment_distance`);
+2. **certify**: a piece of parameter length ``h`` stays within ``K h^2 / 8`` of its chord,
+   so ``min(chord distance - e_a - e_b)`` over all pieces is a lower bound on the true
+   minimum; so is the Lipschitz bound ``d_grid - (lam_a h_a + lam_b h_b) / 2`` of the
+   sample points (``d_grid`` their smallest distance). The larger of the two is
+   returned as ``lower_bound``;
+3. **refine**: from the closest chords, a bounded Gauss-Newton minimisation over the two
+   arc parameters: each step replaces both curves by their tangent segments over a trust
+   interval (inside ``[0, L0]``) and takes their exact closest points; a step is kept
+   only where it shortens the true distance, else the interval halves.
+
+The returned distance is that of two actual points of the curves, so
+``lower_bound <= true minimum <= distance``; their difference is ``gap``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from tension_opt import CableRobot
+from tension_opt.checks import whole_positive
+from tension_opt.errors import InvalidInputError
+from tension_opt.workspace import Grid
+from tension_opt.workspace.interference import (
+    SHARED_TRIM,
+    CableClearance,
+    cable_pairs,
+    check_clearance,
+    check_trim,
+    pair_ranges,
+    segment_distance,
+    shared_ends,
+)
+from tension_opt.workspace.interference import cable_clearance as straight_clearance
+from tension_opt.workspace.interference_free import InterferenceResult, interference_result
+
+from .elastic import axial_compliance, evaluate
+from .geometry import E_Z, cable_data, cable_planes, check_robot
+from .inverse import inverse_kinematics
+
+__all__ = [
+    "SAMPLES",
+    "CatenaryCurves",
+    "CurveDistance",
+    "cable_clearance",
+    "curve_distance",
+    "interference_free_workspace",
+    "robot_curves",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: Default number of samples along each cable for the bracket and the certificate.
+SAMPLES = 33
+# Gauss-Newton steps of the refinement, and how many curve pairs are bracketed at once
+# (bounds the memory of the piece-by-piece comparison).
+_STEPS = 30
+_CELLS_PER_BLOCK = 400_000
+
+
+@dataclass(frozen=True)
+class CatenaryCurves:
+    """Elastic catenaries in space, batch shape ``S`` (see the module notes).
+
+    Attributes
+    ----------
+    origin : ndarray, shape S + (3,)
+        Attachment point ``A`` (m), base frame.
+    e_h : ndarray, shape S + (3,)
+        Horizontal unit vector of the cable's plane, towards the drawing point.
+    H, V_A, L0 : ndarray, shape S
+        Horizontal tension (N), vertical force at ``A`` (N, upward along the cable) and
+        unstretched length (m).
+    w : float
+        Weight per length (N/m).
+    EA : float
+        Axial stiffness (N), ``inf`` for an inextensible cable.
+    closure : ndarray, shape S + (3,)
+        Drawing point minus the curve's end ``r(L0)`` without closure (m), spread along
+        the cable in proportion to ``s``.
+    """
+
+    origin: FloatArray
+    e_h: FloatArray
+    H: FloatArray
+    V_A: FloatArray
+    L0: FloatArray
+    w: float
+    EA: float
+    closure: FloatArray
+
+    def _spans(self, s: FloatArray) -> tuple[FloatArray, FloatArray]:
+        H, V = self.H[..., None], self.V_A[..., None] + self.w * s
+        with np.errstate(all="ignore"):
+            x, z, *_ = evaluate(
+                H,
+                V,
+                np.where(s > 0, s, 1.0),
+                self.w,
+                axial_compliance(np.asarray(self.EA, dtype=float)),
+                jacobian=False,
+            )
+        return np.where(s > 0, x, 0.0), np.where(s > 0, z, 0.0)
+
+    def points(self, s: ArrayLike, closed: bool = True) -> FloatArray:
+        """Points at arc parameters ``s`` (m), shape S + (k,) -> S + (k, 3) (m)."""
+        s = np.asarray(s, dtype=float)
+        x, z = self._spans(s)
+        p = self.origin[..., None, :] + x[..., None] * self.e_h[..., None, :] + z[..., None] * E_Z
+        if closed:
+            with np.errstate(all="ignore"):
+                share = np.where(self.L0[..., None] > 0, s / self.L0[..., None], 0.0)
+            p = p + share[..., None] * self.closure[..., None, :]
+        return np.asarray(p)
+
+    def tangents(self, s: ArrayLike) -> FloatArray:
+        """Derivatives ``dr/ds`` at arc parameters ``s``, shape S + (k,) -> S + (k, 3)."""
+        s = np.asarray(s, dtype=float)
+        H, V = self.H[..., None], self.V_A[..., None] + self.w * s
+        T = np.hypot(H, V)
+        with np.errstate(all="ignore"):
+            stretch = 1.0 + T / self.EA
+            ch = np.where(T > 0, stretch * H / T, 0.0)
+            cv = np.where(T > 0, stretch * V / T, 1.0)
+            lin = np.where(self.L0[..., None] > 0, 1.0 / self.L0[..., None], 0.0)
+        return np.asarray(
+            ch[..., None] * self.e_h[..., None, :]
+            + cv[..., None] * E_Z
+            + lin[..., None] * self.closure[..., None, :]
+        )
+
+    def bounds(self) -> tuple[FloatArray, FloatArray]:
+        """Lipschitz constant ``lam`` (largest ``|r'|``) and curvature bound ``K``
+        (largest ``|r''|``, 1/m), shape S each."""
+        V_B = self.V_A + self.w * self.L0
+        T_max = np.maximum(np.hypot(self.H, self.V_A), np.hypot(self.H, V_B))
+        crosses = (self.V_A < 0) & (V_B > 0)
+        V_min = np.where(crosses, 0.0, np.minimum(np.abs(self.V_A), np.abs(V_B)))
+        with np.errstate(all="ignore"):
+            stretch = 1.0 + T_max / self.EA
+            lam = stretch + np.where(
+                self.L0 > 0, np.linalg.norm(self.closure, axis=-1) / self.L0, 0.0
+            )
+            T2 = self.H**2 + V_min**2
+            bend = np.where(self.H > 0, self.w * self.H / T2, np.where(V_min > 0, 0.0, np.inf))
+            K = self.w / self.EA + stretch * np.where(self.w > 0, bend, 0.0)
+        return lam, K
+
+    def take(self, index: Any) -> CatenaryCurves:
+        """The curves at ``index`` of the batch."""
+        return CatenaryCurves(
+            self.origin[index],
+            self.e_h[index],
+            self.H[index],
+            self.V_A[index],
+            self.L0[index],
+            self.w,
+            self.EA,
+            self.closure[index],
+        )
+
+
+@dataclass(frozen=True)
+class CurveDistance:
+    """Closest points of two batches of catenaries (:func:`curve_distance`).
+
+    Attributes
+    ----------
+    distance : ndarray, shape S
+        Distance of the closest points found (m): an upper bound on the true minimum.
+    lower_bound : ndarray, shape S
+        Certified lower bound on the true minimum (m), >= 0.
+    s, t : ndarray, shape S
+        Arc parameters of the closest points on the first and second curve (m).
+    point_a, point_b : ndarray, shape S + (3,)
+        The closest points (m).
+    """
+
+    distance: FloatArray
+    lower_bound: FloatArray
+    s: FloatArray
+    t: FloatArray
+    point_a: FloatArray
+    point_b: FloatArray
+
+    @property
+    def gap(self) -> FloatArray:
+        """``distance - lower_bound`` (m): how far the answer may be from the minimum."""
+        return self.distance - self.lower_bound
+
+
+def _bracket(
+    a: CatenaryCurves, b: CatenaryCurves, ra: FloatArray, rb: FloatArray, n: int
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Start parameters ``s0, t0`` and the certified lower bound for flat batches (S,).
+
+    ``ra, rb`` (S, 2) are the compared parameter intervals (m)."""
+    u = np.linspace(0.0, 1.0, n)
+    sa = ra[:, :1] + (ra[:, 1:] - ra[:, :1]) * u
+    sb = rb[:, :1] + (rb[:, 1:] - rb[:, :1]) * u
+    pa, pb = a.points(sa), b.points(sb)
+    cells = segment_distance(
+        pa[:, :-1, None, :], pa[:, 1:, None, :], pb[:, None, :-1, :], pb[:, None, 1:, :]
+    )
+    ha, hb = (ra[:, 1] - ra[:, 0]) / (n - 1), (rb[:, 1] - rb[:, 0]) / (n - 1)
+    lam_a, K_a = a.bounds()
+    lam_b, K_b = b.bounds()
+    with np.errstate(invalid="ignore"):
+        tube = cells.distance.reshape(len(ha), -1).min(axis=1) - (K_a * ha**2 + K_b * hb**2) / 8
+        nodes = np.linalg.norm(pa[:, :, None, :] - pb[:, None, :, :], axis=-1)
+        lips = nodes.reshape(len(ha), -1).min(axis=1) - (lam_a * ha + lam_b * hb) / 2
+        lower = np.maximum(np.fmax(tube, lips), 0.0)
+    flat = np.nan_to_num(cells.distance, nan=np.inf).reshape(len(ha), -1)
+    best = np.argmin(flat, axis=1)
+    j, k = np.divmod(best, n - 1)
+    idx = np.arange(len(ha))
+    s0 = sa[idx, j] + cells.s.reshape(len(ha), -1)[idx, best] * ha
+    t0 = sb[idx, k] + cells.t.reshape(len(ha), -1)[idx, best] * hb
+    lower = np.where(np.isnan(flat).any(axis=1), np.nan, lower)
+    return s0, t0, lower
+
+
+def _refine(
+    a: CatenaryCurves,
+    b: CatenaryCurves,
+    ra: FloatArray,
+    rb: FloatArray,
+    s: FloatArray,
+    t: FloatArray,
+    ha: FloatArray,
+    hb: FloatArray,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Bounded Gauss-Newton on the two arc parameters, for flat batches (S,)."""
+    pa, pb = a.points(s[:, None])[:, 0], b.points(t[:, None])[:, 0]
+    d = np.linalg.norm(pa - pb, axis=-1)
+    for _ in range(_STEPS):
+        ta, tb = a.tangents(s[:, None])[:, 0], b.tangents(t[:, None])[:, 0]
+        a_lo, a_hi = np.maximum(ra[:, 0], s - ha), np.minimum(ra[:, 1], s + ha)
+        b_lo, b_hi = np.maximum(rb[:, 0], t - hb), np.minimum(rb[:, 1], t + hb)
+        step = segment_distance(
+            pa + (a_lo - s)[:, None] * ta,
+            pa + (a_hi - s)[:, None] * ta,
+            pb + (b_lo - t)[:, None] * tb,
+            pb + (b_hi - t)[:, None] * tb,
+        )
+        s1 = a_lo + step.s * (a_hi - a_lo)
+        t1 = b_lo + step.t * (b_hi - b_lo)
+        qa, qb = a.points(s1[:, None])[:, 0], b.points(t1[:, None])[:, 0]
+        d1 = np.linalg.norm(qa - qb, axis=-1)
+        better = d1 < d
+        moved = np.abs(s1 - s) + np.abs(t1 - t)
+        s, t, d = np.where(better, s1, s), np.where(better, t1, t), np.where(better, d1, d)
+        pa, pb = np.where(better[:, None], qa, pa), np.where(better[:, None], qb, pb)
+        ha = np.where(better, ha, 0.5 * ha)
+        hb = np.where(better, hb, 0.5 * hb)
+        scale = 1e-13 * (1.0 + np.abs(s) + np.abs(t))
+        if not ((better & (moved > scale)) | ((ha + hb) > scale)).any():
+            break
+    return d, s, t, pa, pb
+
+
+def curve_distance(
+    a: CatenaryCurves,
+    b: CatenaryCurves,
+    range_a: ArrayLike | None = None,
+    range_b: ArrayLike | None = None,
+    samples: int = SAMPLES,
+) -> CurveDistance:
+    """Certified smallest distance between two batches of catenaries (module notes).
+
+    Parameters
+    ----------
+    a, b : CatenaryCurves
+        Batch shape ``S`` each (the same).
+    range_a, range_b : array_like, shape S + (2,), optional
+        Compared interval of arc parameters ``[lo, hi]`` (m) of each curve; default
+        ``[0, L0]``.
+    samples : int
+        Samples along each curve for the bracket and the certificate, >= 2; the lower
+        bound tightens as ``1 / samples^2``.
+
+    Returns
+    -------
+    CurveDistance
+        NaN where a curve has non-finite data.
+    """
+    n = whole_positive("samples", samples)
+    if n < 2:
+        raise InvalidInputError(f"samples must be a whole number >= 2, got {samples!r}")
+    shape = a.H.shape
+    if b.H.shape != shape:
+        raise InvalidInputError(
+            f"the two batches of curves differ in shape: {shape} and {b.H.shape}"
+        )
+    full_a = np.stack([np.zeros(shape), a.L0], axis=-1)
+    full_b = np.stack([np.zeros(shape), b.L0], axis=-1)
+    ra = (full_a if range_a is None else np.broadcast_to(range_a, (*shape, 2))).reshape(-1, 2)
+    rb = (full_b if range_b is None else np.broadcast_to(range_b, (*shape, 2))).reshape(-1, 2)
+    fa, fb = a.take(np.s_[...]), b.take(np.s_[...])
+    fa = CatenaryCurves(
+        fa.origin.reshape(-1, 3),
+        fa.e_h.reshape(-1, 3),
+        fa.H.ravel(),
+        fa.V_A.ravel(),
+        fa.L0.ravel(),
+        a.w,
+        a.EA,
+        fa.closure.reshape(-1, 3),
+    )
+    fb = CatenaryCurves(
+        fb.origin.reshape(-1, 3),
+        fb.e_h.reshape(-1, 3),
+        fb.H.ravel(),
+        fb.V_A.ravel(),
+        fb.L0.ravel(),
+        b.w,
+        b.EA,
+        fb.closure.reshape(-1, 3),
+    )
+    S = fa.H.size
+    out = [np.full(S, np.nan) for _ in range(4)] + [np.full((S, 3), np.nan) for _ in range(2)]
+    block = max(1, _CELLS_PER_BLOCK // (n - 1) ** 2)
+    for lo in range(0, S, block):  # blocks of curve pairs, not poses: bounded memory
+        sl = slice(lo, min(S, lo + block))
+        ca, cb = fa.take(sl), fb.take(sl)
+        s0, t0, lower = _bracket(ca, cb, ra[sl], rb[sl], n)
+        ha = (ra[sl, 1] - ra[sl, 0]) / (n - 1)
+        hb = (rb[sl, 1] - rb[sl, 0]) / (n - 1)
+        d, s, t, pa, pb = _refine(ca, cb, ra[sl], rb[sl], s0, t0, ha, hb)
+        for arr, val in zip(out, (d, np.minimum(lower, d), s, t, pa, pb), strict=True):
+            arr[sl] = val
+    d, lower, s, t, pa, pb = out
+    return CurveDistance(
+        d.reshape(shape),
+        lower.reshape(shape),
+        s.reshape(shape),
+        t.reshape(shape),
+        pa.reshape(*shape, 3),
+        pb.reshape(*shape, 3),
+    )
+
+
+def robot_curves(
+    robot: CableRobot, poses: NDArray, H: ArrayLike, V_A: ArrayLike, L0: ArrayLike
+) -> CatenaryCurves:
+    """The catenaries of a robot's cables, batch shape (N, m).
+
+    Parameters
+    ----------
+    robot : CableRobot
+        Needs ``robot.cable`` (weight per length, ``EA``).
+    poses : ndarray, shape (N, n)
+        Validated poses (m, rad).
+    H, V_A, L0 : array_like, shape (N, m)
+        Horizontal tension (N), vertical force at the platform (N, upward along the
+        cable) and unstretched length (m) of each cable, e.g. from
+        :func:`catenary.inverse_kinematics` (``horizontal_tensions``,
+        ``platform_forces[..., 2]``, ``lengths``).
+
+    Returns
+    -------
+    CatenaryCurves
+        Ending on the drawing points (the solver's residual there spread along the
+        cables, :attr:`CatenaryCurves.closure`).
+    """
+    w, EA = cable_data(robot)
+    planes = cable_planes(robot, poses)
+    origin = planes.position[:, None, :] + planes.arms
+    H, V_A, L0 = (np.asarray(v, dtype=float) for v in (H, V_A, L0))
+    open_curves = CatenaryCurves(origin, planes.e_h, H, V_A, L0, w, EA, np.zeros_like(origin))
+    end = open_curves.points(L0[..., None], closed=False)[..., 0, :]
+    closure = robot.anchors[None] - end
+    return CatenaryCurves(origin, planes.e_h, H, V_A, L0, w, EA, closure)
+
+
+def _check_model(model: object) -> Literal["straight", "coupled", "thesis"]:
+    if model not in ("straight", "coupled", "thesis"):
+        raise InvalidInputError(f"model must be 'coupled', 'thesis' or 'straight', got {model!r}")
+    return model  # type: ignore[return-value]
+
+
+def cable_clearance(
+    robot: CableRobot,
+    poses: ArrayLike,
+    model: str = "coupled",
+    *,
+    shared_trim: float = SHARED_TRIM,
+    samples: int = SAMPLES,
+    **options: Any,
+) -> CableClearance:
+    """Smallest distance between every two sagging cables of a batch of poses, certified.
+
+    The same signature and result as :func:`tension_opt.workspace.cable_clearance`,
+    with the cables as catenaries (module notes).
+
+    Parameters
+    ----------
+    robot : CableRobot
+        Needs ``robot.cable``.
+    poses : array_like, shape (N, n) or (n,)
+        Platform poses (m, rad).
+    model : {"coupled", "thesis", "straight"}
+        The sag model of :func:`catenary.inverse_kinematics` whose catenaries are
+        compared; ``"straight"`` is the straight-cable answer.
+    shared_trim : float
+        Share of each cable's length, in ``[0, 0.5)``, left out at an end it shares with
+        the other cable of a pair (unstretched length from that end).
+    samples : int
+        Samples along each cable for the bracket and the certificate.
+    **options
+        Passed to :func:`catenary.inverse_kinematics` (``objective``, ``backend``,
+        ``wrench`` ...).
+
+    Returns
+    -------
+    CableClearance
+        ``clearance`` (N,) in m and ``pair`` (N, 2); per pair ``distances`` (N, P),
+        certified ``lower_bound`` (N, P), ``points`` (N, P, 2, 3) and ``arc`` (N, P, 2)
+        (unstretched length from the attachment point, m). ``extras["status"]`` is the
+        inverse kinematics' status; poses where it failed get NaN.
+
+    Raises
+    ------
+    InvalidInputError
+        On bad poses, model, shared_trim or samples.
+    InvalidCableError
+        If the robot has no cable properties.
+    """
+    model = _check_model(model)
+    if model == "straight":
+        return straight_clearance(robot, poses, shared_trim=shared_trim)
+    check_robot(robot)
+    trim = check_trim(shared_trim)
+    whole_positive("samples", samples)
+    P = robot.as_poses(poses)
+    res = inverse_kinematics(robot, P, model, **options)
+    ok = res.success[:, None] & np.isfinite(res.lengths)
+    nan = np.where(ok, 1.0, np.nan)
+    curves = robot_curves(
+        robot,
+        P,
+        res.horizontal_tensions * nan,
+        res.platform_forces[..., 2] * nan,
+        res.lengths * nan,
+    )
+    pairs = cable_pairs(robot.m)
+    at_platform, at_anchor = shared_ends(robot, pairs)
+    frac = pair_ranges(at_platform, at_anchor, trim)  # (P, 2, 2)
+    i, j = pairs[:, 0], pairs[:, 1]
+    a, b = curves.take(np.s_[:, i]), curves.take(np.s_[:, j])
+    found = curve_distance(
+        a, b, frac[None, :, 0, :] * a.L0[..., None], frac[None, :, 1, :] * b.L0[..., None], samples
+    )
+    points = np.stack([found.point_a, found.point_b], axis=-2)
+    arc = np.stack([found.s, found.t], axis=-1)
+    return CableClearance.from_pairs(
+        found.distance,
+        found.lower_bound,
+        points,
+        arc,
+        pairs,
+        at_platform | at_anchor,
+        model,
+        {"status": res.status, "gap": found.gap},
+    )
+
+
+def interference_free_workspace(
+    robot: CableRobot,
+    poses: ArrayLike | Grid,
+    clearance: float = 0.0,
+    *,
+    model: str = "coupled",
+    with_wrenches: bool = False,
+    wrenches: ArrayLike | None = None,
+    shared_trim: float = SHARED_TRIM,
+    samples: int = SAMPLES,
+    bounds: tuple[ArrayLike, ArrayLike] | None = None,
+    **options: Any,
+) -> InterferenceResult:
+    """Which poses keep every two sagging cables more than ``clearance`` apart.
+
+    As :func:`tension_opt.workspace.interference_free_workspace`, with the cables as the
+    catenaries of ``model`` (:func:`cable_clearance`). ``with_wrenches`` adds the
+    coupled-sag wrench feasibility (:func:`catenary.sag_workspace`) for ``"coupled"``
+    and the straight one otherwise; ``feasible`` is the AND of both.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    poses : array_like, shape (N, n), or Grid
+    clearance : float
+        Required smallest distance between two cables (m), >= 0.
+    model : {"coupled", "thesis", "straight"}
+    with_wrenches : bool
+    wrenches : array_like, shape (n,) or (K, n), optional
+        External wrenches of the wrench check (N, N m).
+    shared_trim, samples
+        As :func:`cable_clearance`.
+    bounds : (array_like, array_like), optional
+        The sampled box, as in :func:`tension_opt.workspace.wrench_feasible_workspace`.
+    **options
+        Passed to the inverse kinematics and the wrench check (``backend`` ...).
+
+    Returns
+    -------
+    InterferenceResult
+    """
+    from tension_opt.workspace import prepare, wrench_feasible_workspace
+
+    from .workspace import sag_workspace
+
+    required = check_clearance(clearance)
+    model = _check_model(model)
+    P, _, layout = prepare(robot, poses, wrenches, bounds)
+    clear = cable_clearance(robot, P, model, shared_trim=shared_trim, samples=samples, **options)
+    wrench = None
+    if with_wrenches:
+        check = sag_workspace if model == "coupled" else wrench_feasible_workspace
+        wrench = check(robot, P, wrenches, **options)
+    return interference_result(robot, P, layout, clear, required, wrench)
