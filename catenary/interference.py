@@ -45,7 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt import CableRobot
 from tension_opt.checks import whole_positive
 from tension_opt.errors import InvalidInputError
-from tension_opt.workspace import Grid
+from tension_opt.workspace import Grid, prepare, wrench_feasible_workspace
 from tension_opt.workspace.interference import (
     SHARED_TRIM,
     CableClearance,
@@ -62,6 +62,7 @@ from tension_opt.workspace.interference_free import InterferenceResult, interfer
 from .elastic import axial_compliance, evaluate
 from .geometry import E_Z, cable_data, cable_planes, check_robot
 from .inverse import inverse_kinematics
+from .workspace import sag_workspace
 
 __all__ = [
     "SAMPLES",
@@ -531,10 +532,6 @@ def interference_free_workspace(
     -------
     InterferenceResult
     """
-    from tension_opt.workspace import prepare, wrench_feasible_workspace
-
-    from .workspace import sag_workspace
-
     required = check_clearance(clearance)
     model = _check_model(model)
     P, _, layout = prepare(robot, poses, wrenches, bounds)

@@ -1,0 +1,200 @@
+"""Interference of straight cables: segment distances against hand cases, dense sampling
+and a local solver; clearances and interference-free workspaces of the presets."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.optimize import minimize
+
+import tension_opt as to
+from tension_opt import workspace as ws
+from tension_opt.errors import InvalidInputError
+
+
+def sampled(p0, p1, q0, q1, n=801):
+    """Smallest distance between ``n`` samples of each segment, and the sampling's
+    certified slack ``(|p1 - p0| + |q1 - q0|) / (2 (n - 1))``."""
+    u = np.linspace(0.0, 1.0, n)[:, None]
+    a = p0 + u * (p1 - p0)
+    b = q0 + u * (q1 - q0)
+    d = np.linalg.norm(a[:, None] - b[None], axis=-1)
+    slack = (np.linalg.norm(p1 - p0) + np.linalg.norm(q1 - q0)) / (2 * (n - 1))
+    return float(d.min()), slack
+
+
+def refined(p0, p1, q0, q1):
+    """Dense sampling refined by a bounded local solver (an independent reference)."""
+    u = np.linspace(0.0, 1.0, 201)
+    a = p0 + u[:, None] * (p1 - p0)
+    b = q0 + u[:, None] * (q1 - q0)
+    d = np.linalg.norm(a[:, None] - b[None], axis=-1)
+    j, k = np.unravel_index(np.argmin(d), d.shape)
+
+    def f(x):
+        return float(np.sum((p0 + x[0] * (p1 - p0) - q0 - x[1] * (q1 - q0)) ** 2))
+
+    res = minimize(f, [u[j], u[k]], bounds=[(0, 1), (0, 1)], method="L-BFGS-B",
+                   options={"ftol": 1e-15, "gtol": 1e-12})
+    return float(np.sqrt(min(res.fun, d.min() ** 2)))
+
+
+@pytest.mark.parametrize(
+    ("p0", "p1", "q0", "q1", "expected"),
+    [
+        ([0, 0, 0], [1, 0, 0], [0.5, -1, 1], [0.5, 1, 1], 1.0),  # crossing, 1 m apart
+        ([0, 0, 0], [1, 0, 0], [0.5, -1, 0], [0.5, 1, 0], 0.0),  # crossing, touching
+        ([0, 0, 0], [1, 0, 0], [0.5, 0.3, 0], [3, 0.3, 0], 0.3),  # parallel, overlapping
+        ([0, 0, 0], [1, 0, 0], [2, 0.3, 0], [3, 0.3, 0], np.hypot(1, 0.3)),  # parallel, apart
+        ([0, 0, 0], [1, 0, 0], [0.5, 0, 0], [3, 0, 0], 0.0),  # collinear, overlapping
+        ([0, 0, 0], [1, 0, 0], [3, 0, 0], [2, 0, 0], 1.0),  # collinear, disjoint, reversed
+        ([0, 0, 0], [1, 0, 0], [1, 0, 0], [1, 2, 0], 0.0),  # touching ends
+        ([0, 0, 0], [0, 0, 0], [0.5, 0.3, 0], [3, 0.3, 0], np.hypot(0.5, 0.3)),  # a point
+        ([1, 2, 3], [1, 2, 3], [1, 2, 5], [1, 2, 5], 2.0),  # two points
+    ],
+)
+def test_segment_distance_hand_cases(p0, p1, q0, q1, expected):
+    res = ws.segment_distance(p0, p1, q0, q1)
+    assert res.distance == pytest.approx(expected, abs=1e-12)
+    # The points are on the segments, at the fractions, and that far apart.
+    assert np.allclose(res.point_a, np.add(p0, res.s * np.subtract(p1, p0)))
+    assert np.allclose(res.point_b, np.add(q0, res.t * np.subtract(q1, q0)))
+    assert np.linalg.norm(res.point_a - res.point_b) == pytest.approx(expected, abs=1e-12)
+    # Symmetric in the two segments and in their directions.
+    assert ws.segment_distance(q1, q0, p1, p0).distance == pytest.approx(expected, abs=1e-12)
+
+
+def test_segment_distance_batches_against_sampling_and_a_local_solver():
+    rng = np.random.default_rng(7)
+    P = rng.normal(size=(60, 4, 3))
+    P[:20, 3] = P[:20, 2] + 0.7 * (P[:20, 1] - P[:20, 0])  # parallel pairs
+    P[20:25, 1] = P[20:25, 0]  # zero-length first segments
+    res = ws.segment_distance(P[:, 0], P[:, 1], P[:, 2], P[:, 3])
+    assert res.distance.shape == (60,)
+    for k in range(60):
+        d_grid, slack = sampled(*P[k])
+        assert d_grid - slack - 1e-12 <= res.distance[k] <= d_grid + 1e-12
+        assert res.distance[k] == pytest.approx(refined(*P[k]), abs=1e-7)
+
+
+coordinate = st.floats(-10, 10, allow_nan=False, allow_infinity=False)
+point = st.tuples(coordinate, coordinate, coordinate)
+
+
+@settings(max_examples=150, deadline=None)
+@given(point, point, point, point)
+def test_segment_distance_brackets_the_sampled_minimum(p0, p1, q0, q1):
+    p0, p1, q0, q1 = (np.array(v) for v in (p0, p1, q0, q1))
+    d = float(ws.segment_distance(p0, p1, q0, q1).distance)
+    d_grid, slack = sampled(p0, p1, q0, q1, n=301)
+    assert d <= d_grid + 1e-9
+    assert d >= d_grid - slack - 1e-9
+
+
+def test_cogiro_home_clearance_and_its_crossing_cables():
+    robot = to.presets.cogiro()
+    res = ws.cable_clearance(robot, robot.home)
+    clearance, pair = res  # unpacks as the contract says
+    # The two cables of one corner leave their drawing points 0.40 m apart.
+    assert clearance[0] == pytest.approx(0.397880, abs=1e-6)
+    assert pair[0].tolist() == [6, 7]
+    assert not res.shared.any()
+    A = robot.attachment_points(robot.home)[0]
+    B = robot.anchors
+    for p, (i, j) in enumerate(res.pairs):  # every pair against the independent reference
+        assert res.distances[0, p] == pytest.approx(refined(A[i], B[i], A[j], B[j]), abs=1e-7)
+    # Crossing cables (closest points inside both): the smallest is cables 1 and 2.
+    L = robot.cable_geometry(robot.home).lengths[0]
+    arc = res.arc[0]
+    inside = ((arc[:, 0] > 1e-6) & (arc[:, 0] < L[res.pairs[:, 0]] - 1e-6)
+              & (arc[:, 1] > 1e-6) & (arc[:, 1] < L[res.pairs[:, 1]] - 1e-6))
+    crossing = res.pairs[inside]
+    assert {tuple(c) for c in crossing} == {(0, 4), (0, 7), (1, 2), (3, 4), (3, 7), (5, 6)}
+    k = np.argmin(np.where(inside, res.distances[0], np.inf))
+    assert res.pairs[k].tolist() == [1, 2]
+    assert res.distances[0, k] == pytest.approx(0.860968, abs=1e-6)
+    d_grid, slack = sampled(A[1], B[1], A[2], B[2], n=2001)
+    assert d_grid - slack <= res.distances[0, k] <= d_grid
+
+
+def test_algae_harvester_cables_share_the_platform_point():
+    robot = to.presets.algae_harvester()
+    res = ws.cable_clearance(robot, robot.home)
+    assert res.shared.all()
+    # At home, cables 0 and 1 are 62.2 m apart at the towers; 5 % of each is left out at
+    # the platform, so the pieces start 0.05 * 62.2 m apart (equal lengths).
+    assert res.clearance[0] == pytest.approx(0.05 * 62.2, abs=1e-9)
+    assert res.pair[0].tolist() == [0, 1]
+    wider = ws.cable_clearance(robot, robot.home, shared_trim=0.1)
+    assert wider.clearance[0] == pytest.approx(0.1 * 62.2, abs=1e-9)
+    none = ws.cable_clearance(robot, robot.home, shared_trim=0.0)
+    assert none.clearance[0] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_batches_are_vectorised_and_equal_pose_by_pose():
+    robot = to.presets.cogiro()
+    poses = np.array([robot.home, [1.0, -1.0, 1.5, 0.1, 0.0, 0.2], [-2.0, 1.0, 2.5, 0, 0.1, 0]])
+    batch = ws.cable_clearance(robot, poses)
+    for k in range(3):
+        one = ws.cable_clearance(robot, poses[k])
+        assert np.array_equal(one.distances[0], batch.distances[k])
+    assert batch.points.shape == (3, 28, 2, 3)
+    assert np.allclose(np.linalg.norm(batch.points[..., 0, :] - batch.points[..., 1, :], axis=-1),
+                       batch.distances)
+
+
+def test_interference_free_workspace_alone_and_with_wrenches():
+    robot = to.presets.cogiro()
+    grid = ws.workspace_grid([-3, -2, 1, 0, 0, 0], [3, 2, 3, 0, 0, 0],
+                             counts=[5, 5, 3, 1, 1, 1])
+    alone = ws.interference_free_workspace(robot, grid, clearance=robot.cable.diameter)
+    assert alone.N == 75 and alone.cable_clearance.shape == (75,)
+    assert np.isfinite(alone.cable_clearance).all()
+    assert (alone.cable_clearance > 0.2).all()  # straight cables never come close here
+    assert alone.feasible.all() and alone.volume() == pytest.approx(6 * 4 * 2)
+    # The two cables of a corner stay about 0.4 m apart: 0.38 m splits the grid.
+    assert alone.cable_clearance.min() == pytest.approx(0.314468, abs=1e-6)
+    strict = ws.interference_free_workspace(robot, grid, clearance=0.38)
+    assert np.array_equal(strict.feasible, strict.cable_clearance > 0.38)
+    assert 0 < strict.fraction() < 1
+    both = ws.interference_free_workspace(robot, grid, clearance=0.38, with_wrenches=True)
+    wrench = ws.wrench_feasible_workspace(robot, grid)
+    assert np.array_equal(both.feasible, strict.feasible & wrench.feasible)
+    assert np.array_equal(both.margin, wrench.margin)
+    frame = both.to_frame()
+    assert {"cable_clearance", "interference_free", "wrench_feasible"} <= set(frame.columns)
+    home = ws.interference_free_workspace(robot, robot.home, clearance=robot.cable.diameter)
+    assert home.feasible.all()
+
+
+def test_tilted_cogiro_poses_bring_cables_within_a_diameter():
+    robot = to.presets.cogiro()
+    grid = ws.workspace_grid([-3, -2, 1, -0.3, -0.3, -0.3], [3, 2, 3, 0.3, 0.3, 0.3],
+                             counts=[3, 3, 2, 3, 3, 3])
+    res = ws.interference_free_workspace(robot, grid, clearance=robot.cable.diameter)
+    assert res.cable_clearance.min() == pytest.approx(0.002807, abs=1e-6)
+    assert 0.9 < res.fraction() < 1.0
+    k = int(np.argmin(res.cable_clearance))
+    i, j = res.pair[k]
+    A = robot.attachment_points(res.poses[k])[0]
+    B = robot.anchors
+    assert res.cable_clearance[k] == pytest.approx(refined(A[i], B[i], A[j], B[j]), abs=1e-7)
+
+
+@pytest.mark.parametrize(
+    ("call", "word"),
+    [
+        (lambda r: ws.cable_clearance(r, r.home, model="coupled"), "model"),
+        (lambda r: ws.cable_clearance(r, r.home, shared_trim=0.6), "shared_trim"),
+        (lambda r: ws.cable_clearance(r, r.home, shared_trim="a"), "shared_trim"),
+        (lambda r: ws.cable_clearance(r, [0.0, 1.0]), "poses"),
+        (lambda r: ws.cable_clearance(r, [[np.nan] * 6]), "poses"),
+        (lambda r: ws.interference_free_workspace(r, r.home, clearance=-0.1), "clearance"),
+        (lambda r: ws.interference_free_workspace(r, r.home, clearance=np.inf), "clearance"),
+    ],
+)
+def test_bad_input_raises_the_package_error_naming_the_argument(call, word):
+    with pytest.raises(InvalidInputError, match=word):
+        call(to.presets.cogiro())
