@@ -220,29 +220,50 @@ def _bracket(
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Start parameters ``s0, t0`` and the certified lower bound for flat batches (S,).
 
-    ``ra, rb`` (S, 2) are the compared parameter intervals (m)."""
+    ``ra, rb`` (S, 2) are the compared parameter intervals (m). Each piece lies in the
+    ball around its chord's midpoint of radius half the chord plus its tube ``K h^2 / 8``;
+    two pieces whose balls are farther apart than the closest two samples cannot hold
+    the minimum, and their balls' distance is their lower bound. The chords of the
+    other pieces are compared exactly."""
     u = np.linspace(0.0, 1.0, n)
     sa = ra[:, :1] + (ra[:, 1:] - ra[:, :1]) * u
     sb = rb[:, :1] + (rb[:, 1:] - rb[:, :1]) * u
     pa, pb = a.points(sa), b.points(sb)
-    cells = segment_distance(
-        pa[:, :-1, None, :], pa[:, 1:, None, :], pb[:, None, :-1, :], pb[:, None, 1:, :]
-    )
     ha, hb = (ra[:, 1] - ra[:, 0]) / (n - 1), (rb[:, 1] - rb[:, 0]) / (n - 1)
     lam_a, K_a = a.bounds()
     lam_b, K_b = b.bounds()
+    S = len(ha)
     with np.errstate(invalid="ignore"):
-        tube = cells.distance.reshape(len(ha), -1).min(axis=1) - (K_a * ha**2 + K_b * hb**2) / 8
-        nodes = np.linalg.norm(pa[:, :, None, :] - pb[:, None, :, :], axis=-1)
-        lips = nodes.reshape(len(ha), -1).min(axis=1) - (lam_a * ha + lam_b * hb) / 2
+        e_a, e_b = K_a * ha**2 / 8, K_b * hb**2 / 8
+        nodes = np.linalg.norm(pa[:, :, None, :] - pb[:, None, :, :], axis=-1).reshape(S, -1)
+        upper = nodes.min(axis=1)
+        lips = upper - (lam_a * ha + lam_b * hb) / 2
+        ma, mb = 0.5 * (pa[:, 1:] + pa[:, :-1]), 0.5 * (pb[:, 1:] + pb[:, :-1])
+        rad_a = 0.5 * np.linalg.norm(pa[:, 1:] - pa[:, :-1], axis=-1) + e_a[:, None]
+        rad_b = 0.5 * np.linalg.norm(pb[:, 1:] - pb[:, :-1], axis=-1) + e_b[:, None]
+        balls = (
+            np.linalg.norm(ma[:, :, None] - mb[:, None], axis=-1)
+            - rad_a[:, :, None]
+            - rad_b[:, None, :]
+        )
+        near = ~(balls > upper[:, None, None])  # NaN curves stay in: they give NaN
+    i, j, k = np.nonzero(near)
+    cells = segment_distance(pa[i, j], pa[i, j + 1], pb[i, k], pb[i, k + 1])
+    exact = np.full(balls.shape, np.inf)
+    exact[i, j, k] = np.nan_to_num(cells.distance, nan=np.inf)
+    with np.errstate(invalid="ignore"):
+        bound = np.where(near, exact - e_a[:, None, None] - e_b[:, None, None], balls)
+        tube = bound.reshape(S, -1).min(axis=1)
         lower = np.maximum(np.fmax(tube, lips), 0.0)
-    flat = np.nan_to_num(cells.distance, nan=np.inf).reshape(len(ha), -1)
-    best = np.argmin(flat, axis=1)
-    j, k = np.divmod(best, n - 1)
-    idx = np.arange(len(ha))
-    s0 = sa[idx, j] + cells.s.reshape(len(ha), -1)[idx, best] * ha
-    t0 = sb[idx, k] + cells.t.reshape(len(ha), -1)[idx, best] * hb
-    lower = np.where(np.isnan(flat).any(axis=1), np.nan, lower)
+    best = np.argmin(exact.reshape(S, -1), axis=1)
+    frac_s = np.zeros(balls.shape)
+    frac_t = np.zeros(balls.shape)
+    frac_s[i, j, k], frac_t[i, j, k] = cells.s, cells.t
+    jb, kb = np.divmod(best, n - 1)
+    idx = np.arange(S)
+    s0 = sa[idx, jb] + frac_s.reshape(S, -1)[idx, best] * ha
+    t0 = sb[idx, kb] + frac_t.reshape(S, -1)[idx, best] * hb
+    lower = np.where(np.isnan(nodes).any(axis=1), np.nan, lower)
     return s0, t0, lower
 
 
@@ -256,32 +277,43 @@ def _refine(
     ha: FloatArray,
     hb: FloatArray,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Bounded Gauss-Newton on the two arc parameters, for flat batches (S,)."""
+    """Bounded Gauss-Newton on the two arc parameters, for flat batches (S,); each pair
+    stops when its step or its trust interval falls below ``1e-12`` of its lengths, or
+    a rejected step below ``1e-7`` of them."""
     pa, pb = a.points(s[:, None])[:, 0], b.points(t[:, None])[:, 0]
     d = np.linalg.norm(pa - pb, axis=-1)
+    tol = 1e-12 * (1.0 + ra[:, 1] + rb[:, 1])
+    live = np.flatnonzero(np.isfinite(d))
     for _ in range(_STEPS):
-        ta, tb = a.tangents(s[:, None])[:, 0], b.tangents(t[:, None])[:, 0]
-        a_lo, a_hi = np.maximum(ra[:, 0], s - ha), np.minimum(ra[:, 1], s + ha)
-        b_lo, b_hi = np.maximum(rb[:, 0], t - hb), np.minimum(rb[:, 1], t + hb)
+        if not len(live):
+            break
+        ca, cb, sl, tl = a.take(live), b.take(live), s[live], t[live]
+        ta, tb = ca.tangents(sl[:, None])[:, 0], cb.tangents(tl[:, None])[:, 0]
+        a_lo, a_hi = np.maximum(ra[live, 0], sl - ha[live]), np.minimum(ra[live, 1], sl + ha[live])
+        b_lo, b_hi = np.maximum(rb[live, 0], tl - hb[live]), np.minimum(rb[live, 1], tl + hb[live])
+        pl, ql = pa[live], pb[live]
         step = segment_distance(
-            pa + (a_lo - s)[:, None] * ta,
-            pa + (a_hi - s)[:, None] * ta,
-            pb + (b_lo - t)[:, None] * tb,
-            pb + (b_hi - t)[:, None] * tb,
+            pl + (a_lo - sl)[:, None] * ta,
+            pl + (a_hi - sl)[:, None] * ta,
+            ql + (b_lo - tl)[:, None] * tb,
+            ql + (b_hi - tl)[:, None] * tb,
         )
         s1 = a_lo + step.s * (a_hi - a_lo)
         t1 = b_lo + step.t * (b_hi - b_lo)
-        qa, qb = a.points(s1[:, None])[:, 0], b.points(t1[:, None])[:, 0]
+        qa, qb = ca.points(s1[:, None])[:, 0], cb.points(t1[:, None])[:, 0]
         d1 = np.linalg.norm(qa - qb, axis=-1)
-        better = d1 < d
-        moved = np.abs(s1 - s) + np.abs(t1 - t)
-        s, t, d = np.where(better, s1, s), np.where(better, t1, t), np.where(better, d1, d)
-        pa, pb = np.where(better[:, None], qa, pa), np.where(better[:, None], qb, pb)
-        ha = np.where(better, ha, 0.5 * ha)
-        hb = np.where(better, hb, 0.5 * hb)
-        scale = 1e-13 * (1.0 + np.abs(s) + np.abs(t))
-        if not ((better & (moved > scale)) | ((ha + hb) > scale)).any():
-            break
+        better = d1 < d[live]
+        keep = live[better]
+        s[keep], t[keep], d[keep] = s1[better], t1[better], d1[better]
+        pa[keep], pb[keep] = qa[better], qb[better]
+        ha[live[~better]] *= 0.5
+        hb[live[~better]] *= 0.5
+        moved = np.abs(s1 - sl) + np.abs(t1 - tl)
+        # A step the distance cannot tell from staying (it changes quadratically, so
+        # steps below about 1e-7 of the lengths are rounding) ends the search too.
+        done = (moved <= tol[live]) | (ha[live] + hb[live] <= tol[live])
+        done |= ~better & (moved <= 1e5 * tol[live])
+        live = live[~done]
     return d, s, t, pa, pb
 
 
@@ -460,15 +492,9 @@ def cable_clearance(
     whole_positive("samples", samples)
     P = robot.as_poses(poses)
     res = inverse_kinematics(robot, P, model, **options)
-    ok = res.success[:, None] & np.isfinite(res.lengths)
-    nan = np.where(ok, 1.0, np.nan)
-    curves = robot_curves(
-        robot,
-        P,
-        res.horizontal_tensions * nan,
-        res.platform_forces[..., 2] * nan,
-        res.lengths * nan,
-    )
+    nan = np.where(res.success[:, None] & np.isfinite(res.lengths), 1.0, np.nan)
+    H, V_A = res.horizontal_tensions * nan, res.platform_forces[..., 2] * nan
+    curves = robot_curves(robot, P, H, V_A, res.lengths * nan)
     pairs = cable_pairs(robot.m)
     at_platform, at_anchor = shared_ends(robot, pairs)
     frac = pair_ranges(at_platform, at_anchor, trim)  # (P, 2, 2)
@@ -479,15 +505,10 @@ def cable_clearance(
     )
     points = np.stack([found.point_a, found.point_b], axis=-2)
     arc = np.stack([found.s, found.t], axis=-1)
+    extras = {"status": res.status, "gap": found.gap}
+    shared = at_platform | at_anchor
     return CableClearance.from_pairs(
-        found.distance,
-        found.lower_bound,
-        points,
-        arc,
-        pairs,
-        at_platform | at_anchor,
-        model,
-        {"status": res.status, "gap": found.gap},
+        found.distance, found.lower_bound, points, arc, pairs, shared, model, extras
     )
 
 
