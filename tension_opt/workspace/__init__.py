@@ -21,6 +21,8 @@ The package holds one job per module:
   result, do not depend on the executor);
 - :mod:`~tension_opt.workspace.interference`: :func:`cable_clearance`,
   :func:`segment_distance` (straight cables' closest distances);
+- :mod:`~tension_opt.workspace.platform`: :func:`platform_clearance` (cables against
+  the platform polyhedron);
 - :mod:`~tension_opt.workspace.interference_free`: :func:`interference_free_workspace`;
 - :mod:`~tension_opt.workspace.plots`: :func:`plot_slice`, :func:`plot_workspace_3d`.
 
@@ -54,6 +56,7 @@ from tension_opt.workspace.interference_free import (
     interference_free_workspace,
 )
 from tension_opt.workspace.margin import LP_CAP, capacity_margin, margin_lp, margin_solve
+from tension_opt.workspace.platform import PlatformClearance, platform_clearance
 from tension_opt.workspace.plots import plot_slice, plot_workspace_3d
 from tension_opt.workspace.result import WorkspaceResult
 
@@ -67,6 +70,7 @@ __all__ = [
     "CableClearance",
     "Grid",
     "InterferenceResult",
+    "PlatformClearance",
     "SegmentDistance",
     "WorkspaceResult",
     "cable_clearance",
@@ -76,6 +80,7 @@ __all__ = [
     "margin_lp",
     "margin_solve",
     "on_drawing_point",
+    "platform_clearance",
     "plot_slice",
     "plot_workspace_3d",
     "prepare",

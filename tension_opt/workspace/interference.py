@@ -19,8 +19,8 @@ Cables that share an end
     only when they run along each other. The pair is flagged in
     :attr:`CableClearance.shared`.
 
-:func:`platform_clearance` measures each cable against the platform, a convex
-polyhedron (default: the convex hull of the attachment points).
+:func:`tension_opt.workspace.platform.platform_clearance` measures each cable against
+the platform, a convex polyhedron.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tension_opt.checks import as_finite, is_number
+from tension_opt.checks import is_number
 from tension_opt.errors import InvalidInputError
 from tension_opt.robot import CableRobot
 
@@ -332,20 +332,3 @@ def check_clearance(clearance: object) -> float:
             f"cables, m; e.g. the cable diameter), got {clearance!r}"
         )
     return value
-
-
-def hull_vertices(robot: CableRobot, platform_hull: ArrayLike | None) -> FloatArray:
-    """Vertices of the platform polyhedron in the platform frame, shape (k, 3) (m).
-
-    The given ``platform_hull`` (checked: finite, shape (k, 3), k >= 1), else the
-    attachment points.
-    """
-    if platform_hull is None:
-        return np.asarray(robot.attachments, dtype=float)
-    V = as_finite("platform_hull", platform_hull)
-    if V.ndim != 2 or V.shape[1] != 3 or V.shape[0] < 1:
-        raise InvalidInputError(
-            f"platform_hull must have shape (k, 3) (vertices in the platform frame, m), "
-            f"got {V.shape}"
-        )
-    return V

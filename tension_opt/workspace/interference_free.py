@@ -24,6 +24,7 @@ from tension_opt.workspace.interference import (
     cable_clearance,
     check_clearance,
 )
+from tension_opt.workspace.platform import PlatformClearance, platform_clearance
 from tension_opt.workspace.result import WorkspaceResult
 
 __all__ = ["InterferenceResult", "interference_free_workspace", "interference_result"]
@@ -53,6 +54,9 @@ class InterferenceResult(WorkspaceResult):
         Wrench feasibility; all true when it was not checked.
     clearances : CableClearance
         Every pair's distance, closest points and certified lower bound.
+    platform : PlatformClearance, optional
+        The cables' distances to the platform where it was checked (``with_platform``);
+        then ``interference_free`` also needs ``platform.clearance > required``.
     """
 
     cable_clearance: NDArray = field(default_factory=lambda: np.zeros(0))
@@ -61,6 +65,7 @@ class InterferenceResult(WorkspaceResult):
     interference_free: NDArray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     wrench_feasible: NDArray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     clearances: CableClearance | None = field(default=None, repr=False)
+    platform: PlatformClearance | None = field(default=None, repr=False)
 
     QUANTITIES: ClassVar[dict[str, str]] = {
         **WorkspaceResult.QUANTITIES,
@@ -90,6 +95,7 @@ def interference_result(
     clear: CableClearance,
     required: float,
     wrench: WorkspaceResult | None,
+    platform: PlatformClearance | None = None,
 ) -> InterferenceResult:
     """Assemble an :class:`InterferenceResult` from clearances and an optional wrench check.
 
@@ -106,10 +112,14 @@ def interference_result(
         Required clearance (m), checked.
     wrench : WorkspaceResult or None
         The wrench-feasible workspace of the same poses, or None for clearance alone.
+    platform : PlatformClearance, optional
+        The cables' distances to the platform, also required to exceed ``required``.
     """
     N = poses.shape[0]
     with np.errstate(invalid="ignore"):
         free = np.asarray(clear.clearance > required, dtype=bool)
+        if platform is not None:
+            free &= platform.clearance > required
     excess = clear.clearance - required
     if wrench is None:
         status = status_array(N, Status.INFEASIBLE)
@@ -131,6 +141,7 @@ def interference_result(
             interference_free=free,
             wrench_feasible=np.ones(N, dtype=bool),
             clearances=clear,
+            platform=platform,
             **layout,
         )
     return InterferenceResult(
@@ -151,6 +162,7 @@ def interference_result(
         interference_free=free,
         wrench_feasible=np.asarray(wrench.feasible, dtype=bool),
         clearances=clear,
+        platform=platform,
         **layout,
     )
 
@@ -163,6 +175,8 @@ def interference_free_workspace(
     with_wrenches: bool = False,
     wrenches: ArrayLike | None = None,
     shared_trim: float = SHARED_TRIM,
+    with_platform: bool = False,
+    platform_hull: ArrayLike | None = None,
     bounds: tuple[ArrayLike, ArrayLike] | None = None,
     **options: Any,
 ) -> InterferenceResult:
@@ -185,6 +199,12 @@ def interference_free_workspace(
     shared_trim : float
         Share of a cable's length left out at an end it shares with another cable
         (:func:`tension_opt.workspace.interference.cable_clearance`).
+    with_platform : bool
+        Also require every cable to clear the platform by ``clearance``
+        (:func:`tension_opt.workspace.platform.platform_clearance`).
+    platform_hull : array_like, shape (k, 3), optional
+        Vertices of the platform polyhedron in the platform frame (m); default the
+        attachment points.
     bounds : (array_like, array_like), optional
         The sampled box, as in :func:`wrench_feasible_workspace`.
     **options
@@ -198,12 +218,13 @@ def interference_free_workspace(
     Raises
     ------
     InvalidInputError
-        On bad poses, clearance, shared_trim, wrenches or bounds.
+        On bad poses, clearance, shared_trim, platform_hull, wrenches or bounds.
     """
     required = check_clearance(clearance)
     P, _, layout = prepare(robot, poses, wrenches, bounds)
     clear = cable_clearance(robot, P, shared_trim=shared_trim)
+    platform = platform_clearance(robot, P, platform_hull) if with_platform else None
     wrench = None
     if with_wrenches:
         wrench = wrench_feasible_workspace(robot, P, wrenches, **options)
-    return interference_result(robot, P, layout, clear, required, wrench)
+    return interference_result(robot, P, layout, clear, required, wrench, platform)

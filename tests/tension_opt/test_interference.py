@@ -198,3 +198,87 @@ def test_tilted_cogiro_poses_bring_cables_within_a_diameter():
 def test_bad_input_raises_the_package_error_naming_the_argument(call, word):
     with pytest.raises(InvalidInputError, match=word):
         call(to.presets.cogiro())
+
+
+# ------------------------------------------------------------------ the platform
+from tension_opt.workspace.platform import hull_triangles, segment_triangle_distance  # noqa: E402
+
+
+def triangle_samples(tri, n=60):
+    """Points of triangles (F, 3, 3) on a barycentric grid, shape (F * k, 3)."""
+    u, v = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
+    keep = u + v <= 1
+    u, v = u[keep], v[keep]
+    pts = tri[:, None, 0] + u[:, None] * (tri[:, None, 1] - tri[:, None, 0]) + v[:, None] * (
+        tri[:, None, 2] - tri[:, None, 0])
+    return pts.reshape(-1, 3)
+
+
+def test_segment_triangle_distance_hand_cases_and_sampling():
+    tri = np.array([[-1.0, -1, 0], [1, -1, 0], [0, 1, 0]])
+    assert segment_triangle_distance([0, 0, 1], [0, 0, -1], *tri) == 0.0  # pierces
+    assert segment_triangle_distance([0, 0, 1], [0, 0, 2], *tri) == pytest.approx(1.0)
+    assert segment_triangle_distance([3, 0, 1], [3, 0, -1], *tri) == pytest.approx(np.sqrt(5))
+    assert segment_triangle_distance([-2, -1, 0], [2, -1, 0], *tri) == 0.0  # along an edge
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        p = rng.normal(size=(2, 3))
+        t = rng.normal(size=(3, 3))
+        d = float(segment_triangle_distance(p[0], p[1], *t))
+        seg = p[0] + np.linspace(0, 1, 300)[:, None] * (p[1] - p[0])
+        pts = triangle_samples(t[None], 80)
+        d_grid = np.linalg.norm(seg[:, None] - pts[None], axis=-1).min()
+        assert d <= d_grid + 1e-12
+        assert d >= d_grid - 0.05  # the sampling's spacing
+
+
+def test_hull_triangles_of_a_box_a_plate_and_a_point():
+    box = np.array([[x, y, z] for x in (0, 1) for y in (0, 2) for z in (0, 3)], float)
+    tri = hull_triangles(box)
+    assert tri.shape == (12, 3, 3)
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    assert area.sum() == pytest.approx(2 * (1 * 2 + 2 * 3 + 1 * 3))
+    plate = hull_triangles(box[box[:, 2] == 0])
+    assert plate.shape == (2, 3, 3)
+    assert hull_triangles(np.zeros((4, 3))).shape == (0, 3, 3)
+
+
+def test_cogiro_cables_against_its_platform():
+    robot = to.presets.cogiro()
+    home = ws.platform_clearance(robot, robot.home)
+    assert home.triangles.shape == (12, 3, 3)
+    assert home.exclude == pytest.approx(0.086648, abs=1e-6)
+    assert home.clearance[0] == pytest.approx(0.052124, abs=1e-6)
+    assert home.cable[0] == 7
+    # Cross-check cable 7 by sampling its remaining piece and the hull's faces.
+    A = robot.attachment_points(robot.home)[0, 7]
+    B = robot.anchors[7]
+    u = (B - A) / np.linalg.norm(B - A)
+    seg = (A + home.exclude * u) + np.linspace(0, 1, 400)[:, None] * (B - A - home.exclude * u)
+    pts = triangle_samples(home.triangles, 60) + robot.home[:3]
+    d_grid = min(np.linalg.norm(seg[k:k + 40, None] - pts[None], axis=-1).min()
+                 for k in range(0, 400, 40))
+    assert home.clearance[0] <= d_grid + 1e-12
+    assert home.clearance[0] == pytest.approx(d_grid, abs=0.02)
+    # Turned 1.2 rad about z, the lower cables cut through the platform.
+    turned = ws.platform_clearance(robot, [0, 0, 2, 0, 0, 1.2])
+    assert np.array_equal(turned.distances[0] == 0, robot.attachments[:, 2] < 0.5)
+    res = ws.interference_free_workspace(robot, [robot.home, [0, 0, 2, 0, 0, 1.2]],
+                                         robot.cable.diameter, with_platform=True)
+    assert res.feasible.tolist() == [True, False]
+    assert res.cable_clearance[1] > robot.cable.diameter  # the cables clear each other
+    # A point-mass platform has no faces.
+    harvester = to.presets.algae_harvester()
+    assert np.isinf(ws.platform_clearance(harvester, harvester.home).clearance).all()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "word"),
+    [({"platform_hull": np.zeros((4, 2))}, "platform_hull"),
+     ({"platform_hull": [[np.nan, 0, 0]]}, "platform_hull"),
+     ({"exclude": -1.0}, "exclude")],
+)
+def test_platform_bad_input(kwargs, word):
+    robot = to.presets.cogiro()
+    with pytest.raises(InvalidInputError, match=word):
+        ws.platform_clearance(robot, robot.home, **kwargs)
