@@ -185,6 +185,10 @@ class RobotDescription(_Strict):
                                     "by the sag models).")
     home: list[_Number] | None = Field(None, description="A central pose, one entry per "
                                        "pose coordinate of the kind (m, rad) (optional).")
+    platform_hull: list[_Vector3] | None = Field(
+        None, min_length=1, description="Vertices of the platform as a convex polyhedron, "
+        "[x, y, z] each in the platform frame (m), for the cable-platform interference "
+        "(optional; default the convex hull of the attachments).")
 
     @field_validator("kind")
     @classmethod
@@ -384,6 +388,8 @@ def robot_arguments(description: RobotDescription, cable_type: _CableType
         "cable": cable, "home": None if d.home is None else np.array(d.home, dtype=float),
         "name": d.name,
         "inertia": None if d.inertia is None else np.array(d.inertia, dtype=float),
+        "platform_hull": (None if d.platform_hull is None
+                          else np.array(d.platform_hull, dtype=float)),
     }
 
 
@@ -441,6 +447,9 @@ class _DescribedRobot(Protocol):
     @property
     def home(self) -> NDArray | None: ...
 
+    @property
+    def platform_hull(self) -> NDArray | None: ...
+
 
 def _per_cable(values: NDArray | float) -> float | list[float]:
     """One number when every cable has the same (bit for bit, so -0.0 stays), else a list."""
@@ -472,6 +481,8 @@ def robot_document(robot: _DescribedRobot) -> dict[str, Any]:
                              "EA": float(robot.cable.EA)}
     if robot.home is not None:
         document["home"] = np.asarray(robot.home, dtype=float).tolist()
+    if robot.platform_hull is not None:
+        document["platform_hull"] = np.asarray(robot.platform_hull, dtype=float).tolist()
     return document
 
 

@@ -134,6 +134,8 @@ class CableRobot:
         (kg m^2), symmetric positive semi-definite. By default that of a uniform solid
         box spanning the attachment points (:func:`box_inertia`); zero for a point mass.
         Used by the dynamics (:mod:`tension_opt.dynamics`) and the natural frequencies.
+    platform_hull : array_like, shape (k, 3), optional
+        Platform polyhedron's vertices, platform frame (m); None: the attachments' hull.
     """
 
     anchors: NDArray
@@ -148,6 +150,7 @@ class CableRobot:
     home: NDArray | None = None
     name: str = "cable robot"
     inertia: NDArray | None = None
+    platform_hull: NDArray | None = None
     pattern: MotionPattern = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -189,19 +192,18 @@ class CableRobot:
                                     f"{anchors[pair[0]].tolist()}: each cable needs its own "
                                     "drawing point")
         home = None if self.home is None else as_finite("home", self.home, (self.dof,))
+        hull = None if (ph := self.platform_hull) is None else as_finite("platform_hull", ph)
+        if hull is not None and (hull.ndim != 2 or hull.shape[1:] != (3,) or not len(hull)):
+            raise InvalidInputError(f"platform_hull must have shape (k, 3), got {hull.shape}")
         inertia = (box_inertia(self.mass, attachments) if self.inertia is None
                    else inertia_tensor(self.inertia))
         # The robot's own copies: the caller's arrays stay theirs, and writeable.
         anchors, attachments, com = anchors.copy(), attachments.copy(), com.copy()
-        home = None if home is None else home.copy()
-        object.__setattr__(self, "anchors", anchors)
-        object.__setattr__(self, "attachments", attachments)
-        object.__setattr__(self, "com", com)
-        object.__setattr__(self, "t_min", t_min)
-        object.__setattr__(self, "t_max", t_max)
-        object.__setattr__(self, "home", home)
-        object.__setattr__(self, "inertia", inertia)
-        for arr in (anchors, attachments, com, t_min, t_max, inertia, home):
+        home, hull = (None if a is None else a.copy() for a in (home, hull))
+        owned = {"anchors": anchors, "attachments": attachments, "com": com, "t_min": t_min,
+                 "t_max": t_max, "home": home, "inertia": inertia, "platform_hull": hull}
+        for key, arr in owned.items():
+            object.__setattr__(self, key, arr)
             if arr is not None:
                 arr.setflags(write=False)
 
@@ -247,9 +249,7 @@ class CableRobot:
         RobotFileError
             Naming each bad field, its line in the file and the fix.
         """
-        from tension_opt.robot import (
-            files as robot_files,  # pydantic and yaml load only when needed
-        )
+        from tension_opt.robot import files as robot_files  # pydantic, yaml only when needed
 
         return robot_files.read_robot_file(path, cls, CableProperties)
 

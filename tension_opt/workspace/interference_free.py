@@ -204,7 +204,7 @@ def interference_free_workspace(
         (:func:`tension_opt.workspace.platform.platform_clearance`).
     platform_hull : array_like, shape (k, 3), optional
         Vertices of the platform polyhedron in the platform frame (m); default the
-        attachment points.
+        robot's ``platform_hull``, else the attachment points.
     bounds : (array_like, array_like), optional
         The sampled box, as in :func:`wrench_feasible_workspace`.
     **options

@@ -1,13 +1,14 @@
 """Cables against the platform: the platform as a convex polyhedron.
 
-The platform is the convex hull of vertices given in the platform frame (default: the
-attachment points). Every cable leaves the hull at its own attachment point, so each
-cable is compared *away from it*: the piece of cable within ``exclude`` metres of its
-attachment point is left out, and the rest of the straight cable is compared exactly
-with every triangle of the hull's faces (:func:`segment_triangle_distance`). A cable
-that runs into the platform from its attachment point crosses the hull there and gets
-0; one that leaves outwards at an angle ``phi`` to the nearest face gets about
-``exclude sin(phi)`` or more.
+The platform is the convex hull of vertices given in the platform frame (the argument
+``platform_hull``, else the robot's :attr:`~tension_opt.CableRobot.platform_hull` from
+its robot file, else the attachment points). Every cable leaves the hull at its own
+attachment point, so each cable is compared *away from it*: the piece of cable within
+``exclude`` metres of its attachment point is left out, and the rest of the straight
+cable is compared exactly with every triangle of the hull's faces
+(:func:`segment_triangle_distance`). A cable that runs into the platform from its
+attachment point crosses the hull there and gets 0; one that leaves outwards at an
+angle ``phi`` to the nearest face gets about ``exclude sin(phi)`` or more.
 
 A hull of coplanar vertices is a flat plate (its polygon's triangles); one of collinear
 vertices or a single point has no faces: nothing to meet, clearance ``inf``.
@@ -148,7 +149,8 @@ class PlatformClearance:
 
 def _check_hull(robot: CableRobot, platform_hull: ArrayLike | None) -> FloatArray:
     if platform_hull is None:
-        return np.asarray(robot.attachments, dtype=float)
+        given = robot.platform_hull
+        return np.asarray(robot.attachments if given is None else given, dtype=float)
     V = as_finite("platform_hull", platform_hull)
     if V.ndim != 2 or V.shape[1] != 3 or V.shape[0] < 1:
         raise InvalidInputError(
@@ -174,7 +176,8 @@ def platform_clearance(
         Platform poses (m, rad).
     platform_hull : array_like, shape (k, 3), optional
         Vertices of the platform polyhedron in the platform frame (m); default the
-        attachment points. The attachment points should lie on its surface.
+        robot's ``platform_hull``, else the attachment points. The attachment points
+        should lie on its surface.
     exclude : float, optional
         Length of cable left out at its attachment point (m), >= 0. Default: 0.1 times
         the platform's size (largest distance of a vertex from their centroid).

@@ -282,3 +282,23 @@ def test_platform_bad_input(kwargs, word):
     robot = to.presets.cogiro()
     with pytest.raises(InvalidInputError, match=word):
         ws.platform_clearance(robot, robot.home, **kwargs)
+
+
+def test_the_platform_hull_of_a_robot_file(tmp_path):
+    robot = to.presets.cogiro()
+    box = np.array([[x, y, z] for x in (-0.52, 0.52) for y in (-0.5, 0.5) for z in (-0.01, 1.01)])
+    boxed = robot.with_(platform_hull=box)
+    for name in ("robot.yaml", "robot.json"):
+        boxed.to_file(tmp_path / name)
+        back = to.CableRobot.from_file(tmp_path / name)
+        assert np.array_equal(back.platform_hull, box)
+    assert robot.platform_hull is None
+    # The robot's hull is the default of platform_clearance; the box holds the
+    # attachments just inside its faces, so the cables leave it near their attachments.
+    mine = ws.platform_clearance(boxed, boxed.home)
+    given = ws.platform_clearance(robot, robot.home, platform_hull=box)
+    assert np.array_equal(mine.distances, given.distances)
+    assert mine.triangles.shape == (12, 3, 3)
+    assert mine.clearance[0] == pytest.approx(0.009772, abs=1e-6)
+    with pytest.raises(InvalidInputError, match="platform_hull"):
+        robot.with_(platform_hull=np.zeros((3, 2)))
