@@ -33,6 +33,7 @@ from tension_opt.backends.settings import (
 from tension_opt.certify.certificate import Multipliers
 from tension_opt.certify.scaling import ScaledBatch, scaled_batch
 from tension_opt.errors import BackendNotAvailableError
+from tension_opt.kernels.launch import compiled_for
 from tension_opt.problem.form import StandardForm
 from tension_opt.status import Status
 from tension_opt.tolerances import FEASIBILITY_TOL, accuracy_target
@@ -370,7 +371,9 @@ class QpsolversBackend(Backend):
         x_all, status, iters = pose_loop_result(N, k)
         lam = np.full((N, k + g + n), np.nan)
         extras: dict[str, Any] = {}
-        structs = None if warm else _native_structs(settings)
+        # Under the size rule's batch size DAQP is called from Python (the same bits as
+        # the compiled call, which would compile on a first small call).
+        structs = None if warm or not compiled_for(N) else _native_structs(settings)
         setup += time.perf_counter() - t0
         t0 = time.perf_counter()
         if structs is not None:  # every pose in one compiled call of DAQP's C solver

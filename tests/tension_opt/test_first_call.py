@@ -42,7 +42,8 @@ def test_a_bad_size_in_the_environment_is_refused(text: str,
 
 def test_small_batches_compile_nothing_in_a_fresh_process() -> None:
     """With an empty kernel cache, plain calls on fewer than COMPILED_MIN poses (every
-    closed-form objective, a 6-DOF robot, a smoothed sequence) start no compilation."""
+    closed-form objective, a 6-DOF robot, a smoothed sequence, generic backends with
+    DAQP's batch among them) start no compilation."""
     script = textwrap.dedent("""
         import numpy as np
         from numba.core import event
@@ -68,6 +69,8 @@ def test_small_batches_compile_nothing_in_a_fresh_process() -> None:
             to.distribute(study, P, objective)
         to.distribute(cogiro, H, "min_norm")
         to.distribute(study, P, to.TensionProblem("min_sum", smoothing=1e-3))
+        for backend in ("qpsolvers:daqp", "qpsolvers:clarabel", "cvxpy:CLARABEL"):
+            to.distribute(study, P[:3], "min_norm", backend)
         print("compiled:", compiled)
     """)
     env = dict(os.environ, NUMBA_CACHE_DIR=tempfile.mkdtemp())
