@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 import tension_opt
 from tension_opt import CableRobot, TensionProblem
 from tension_opt.checks import as_float_array
+from tension_opt.kernels.launch import compiled_for
 from tension_opt.problem.form import Objective
 from tension_opt.status import Status, status_array
 
@@ -377,7 +378,8 @@ class ForwardSystem:
         """
         planes = cable_planes(self.robot, p)
         L = self.lengths
-        start = solve_forces(planes.x, planes.z, L, self.w, self.EA)
+        start = solve_forces(planes.x, planes.z, L, self.w, self.EA,
+                             compiled=compiled_for(planes.x.size))  # the size rule
         H, V = start.H.copy(), start.V_B.copy()
         fallback = ~np.isfinite(H) | ~np.isfinite(V) | (H <= 0)
         if fallback.any():

@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tension_opt import CableRobot
+from tension_opt.kernels.launch import compiled_for
 
 from .elastic import flexibility, length_derivative
 from .errors import InvalidCableError
@@ -234,7 +235,8 @@ def taut_catenaries(x: FloatArray, z: FloatArray, T: FloatArray, w: float, EA: f
         Unpacks as ``H, V_A, V_B, L0, iterations, converged``
         (:func:`catenary.solve_length`).
     """
-    res = solve_length(x, z, T, w, EA, end=end)
+    # The size rule of plain calls: few cables take the numpy reference, compiling nothing.
+    res = solve_length(x, z, T, w, EA, end=end, compiled=compiled_for(np.size(x)))
     return Catenaries(res.H, res.V_A, res.V_B, res.L0, res.iterations, res.converged)
 
 

@@ -24,7 +24,8 @@ DEFAULT_MIN = 16  # the value in tension_opt.kernels.launch (the conftest sets 1
 
 def test_the_readme_example_compiles_nothing_in_a_fresh_process() -> None:
     """With an empty kernel cache: distribute and the thesis model on the study robot's
-    three poses (12 cables) and on one pose start no compilation."""
+    three poses (12 cables) and on one pose, the coupled model and the forward
+    kinematics back from its lengths on one pose start no compilation."""
     script = textwrap.dedent("""
         import numpy as np
         from numba.core import event
@@ -46,7 +47,11 @@ def test_the_readme_example_compiles_nothing_in_a_fresh_process() -> None:
         to.distribute(robot, poses, "min_sum")
         sag = catenary.inverse_kinematics(robot, poses, model="thesis")
         one = catenary.inverse_kinematics(robot, poses[1], model="thesis")
+        coupled = catenary.inverse_kinematics(robot, poses[1], model="coupled")
+        back = catenary.forward_kinematics(robot, coupled.lengths, model="catenary")
         print("statuses:", sag.status.tolist(), one.status.tolist())
+        print("coupled:", coupled.status.tolist(), back.status.tolist(),
+              abs(back.poses - np.asarray(poses[1])).max() < 1e-6)
         print("compiled:", compiled)
     """)
     env = dict(os.environ, NUMBA_CACHE_DIR=tempfile.mkdtemp())
@@ -56,6 +61,7 @@ def test_the_readme_example_compiles_nothing_in_a_fresh_process() -> None:
     assert done.returncode == 0, done.stderr[-3000:]
     assert "compiled: []" in done.stdout, done.stdout[-3000:]
     assert "statuses: ['converged', 'converged', 'converged'] ['converged']" in done.stdout
+    assert "coupled: ['converged'] ['converged'] True" in done.stdout, done.stdout
 
 
 @settings(max_examples=15, deadline=None)
