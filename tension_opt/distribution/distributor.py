@@ -137,10 +137,12 @@ class Distributor:
     external wrench (n,) or (N, n) (N, N m) and, for smoothed or rate-limited problems,
     the previous tensions (m,) (or (N, m), one row per pose, solved independently).
     Without ``previous``, a smoothed problem continues the stream: each pose is smoothed
-    against the last optimal tensions this distributor returned in this thread (the
-    first pose of a stream is solved unsmoothed, as :func:`tension_opt.distribute` does
-    for a sequence); :meth:`reset` starts a new stream. Returns a
-    :class:`RealtimeResult`.
+    against the last tensions this distributor solved in this thread (optimal, or
+    inaccurate by the certificate alone, as a sequence of :func:`tension_opt.distribute`
+    goes on; the first pose of a stream is solved unsmoothed, as that sequence does);
+    :meth:`reset` starts a new stream. Returns a :class:`RealtimeResult`, whose
+    certificate is the one :func:`tension_opt.distribute` computes (``optimal`` only
+    where it meets the ``accuracy`` target).
 
     Threads
     -------
@@ -387,7 +389,7 @@ class Distributor:
     def _daqp_stream(self, p: NDArray, w: NDArray, wrench: ArrayLike | None,
                      previous: ArrayLike | None) -> RealtimeResult:
         """A stream on the compiled DAQP path: pose by pose, in order, each answered as
-        a call with that pose alone would answer it (smoothed against the last optimal
+        a call with that pose alone would answer it (smoothed against the last solved
         answer, the first one against ``previous`` or the stream's last, each warm
         started from the pose before), so that a batch answers as single calls do."""
         N, m = len(p), self._m
