@@ -199,9 +199,13 @@ class CvxpyBackend(Backend):
     def __init__(self, solver: str | None) -> None:
         if cp is None:
             raise BackendNotAvailableError("cvxpy is not installed: pip install cvxpy")
-        installed = cp.installed_solvers()
+        installed = _installed()
         solver = solver.upper() if solver else ("CLARABEL" if "CLARABEL" in installed
                                                 else installed[0])
+        if solver in NOT_SOLVERS:
+            raise BackendNotAvailableError(
+                f"cvxpy's {solver} differentiates a cone program and is no solver to "
+                f"choose: name one of {installed}")
         if solver not in installed:
             raise BackendNotAvailableError(
                 f"cvxpy solver {solver!r} is not installed (installed: {installed}); "
@@ -396,11 +400,20 @@ class _Call:
     user: Mapping[str, Any] | None = None
 
 
+#: Names cvxpy lists among its solvers that are no solver to choose: DIFFCP is the layer
+#: that differentiates a cone program (over SCS), installed for the sensitivity tests.
+NOT_SOLVERS = frozenset({"DIFFCP"})
+
+
+def _installed() -> list[str]:
+    return [s for s in cp.installed_solvers() if s not in NOT_SOLVERS]
+
+
 def available() -> list[str]:
     """Registry names of the installed cvxpy solvers."""
     if cp is None:
         return []
-    return [f"cvxpy:{s}" for s in cp.installed_solvers()]
+    return [f"cvxpy:{s}" for s in _installed()]
 
 
 def make(solver: str | None) -> Backend:
