@@ -84,20 +84,28 @@ def _certified_pass() -> None:
 def _distributor() -> None:
     from tension_opt.backends.registry import available_backends
     from tension_opt.distribution.distributor import Distributor
-    from tension_opt.problem.form import TensionProblem
     from tension_opt.robot import presets
 
     study, cogiro = presets.algae_harvester(), presets.cogiro()
-    # The certified kernels (tension_opt.kernels.distributor): one pose, a stream, and
-    # independent poses each with its own previous tensions.
+    # The certified kernels of one pose (tension_opt.kernels.distributor), and DAQP's.
     Distributor(study)(_study_poses(1)[0])
     Distributor(cogiro, "min_norm")(_spatial_poses(1)[0])
+    if "qpsolvers:daqp" in available_backends():  # the compiled DAQP path
+        Distributor(study, "min_norm", "qpsolvers:daqp")(_study_poses(1)[0])
+
+
+def _distributor_streams() -> None:
+    from tension_opt.distribution.distributor import Distributor
+    from tension_opt.problem.form import TensionProblem
+    from tension_opt.robot import presets
+
+    study = presets.algae_harvester()
+    # A stream, and independent poses each with its own previous tensions: a family of
+    # its own, so that two warm-up processes share the distributor's compile time.
     smoothed = Distributor(study, TensionProblem("min_norm", smoothing=1.0))
     poses = _study_poses(4)
     smoothed(poses)
     smoothed(poses, previous=np.full((len(poses), study.m), 1e3))
-    if "qpsolvers:daqp" in available_backends():  # the compiled DAQP path
-        Distributor(study, "min_norm", "qpsolvers:daqp")(poses[0])
 
 
 def _generic_backends() -> None:
@@ -140,18 +148,19 @@ FAMILIES: dict[str, Callable[[], None]] = {
     "closed form": _closed_form,
     "certified pass": _certified_pass,
     "real-time distributor": _distributor,
+    "real-time distributor: streams": _distributor_streams,
     "certificate of generic solvers": _generic_backends,
     "time-optimal timing": _timing,
 }
 
 
-#: The families of tension distribution (``distribute``, ``Distributor``, the backends'
-#: certificates): all a benchmark cell of ``python -m benchmarks`` runs.
+#: The families a plain ``distribute`` runs (the backends' certificates and sequence
+#: loops included; the ``Distributor``'s own kernels are apart): all the tension
+#: distribution a benchmark cell of ``python -m benchmarks`` runs.
 DISTRIBUTION_FAMILIES: tuple[str, ...] = (
     "robot geometry",
     "closed form",
     "certified pass",
-    "real-time distributor",
     "certificate of generic solvers",
 )
 
