@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
+import sys
 import tempfile
 import threading
 from collections.abc import Callable, Iterator
@@ -116,6 +118,42 @@ def compiled_kernels() -> None:
     from benchmarks.isolation import load_compiled_kernels
 
     load_compiled_kernels()
+
+
+#: Prepended to a script by :func:`fresh_process`: numba's compilations, by function name.
+_COUNT_COMPILATIONS = """
+from numba.core import event
+
+compiled = []
+
+
+class _Count(event.Listener):
+    def on_start(self, ev):
+        compiled.append(ev.data["dispatcher"].py_func.__qualname__)
+
+    def on_end(self, ev):
+        pass
+
+
+event.register("numba:compile", _Count())
+"""
+
+
+@pytest.fixture
+def fresh_process() -> Callable[[str], str]:
+    """Run a script in a fresh process with an empty kernel cache and the default size
+    rule (``TENSION_OPT_COMPILED_MIN`` unset); ``compiled`` (the functions numba
+    compiles) is defined for it. Returns its standard output; a failure fails the test."""
+
+    def run(script: str) -> str:
+        env = dict(os.environ, NUMBA_CACHE_DIR=tempfile.mkdtemp())
+        env.pop("TENSION_OPT_COMPILED_MIN", None)  # the default rule
+        done = subprocess.run([sys.executable, "-c", _COUNT_COMPILATIONS + script],
+                              capture_output=True, text=True, env=env, timeout=600)
+        assert done.returncode == 0, done.stderr[-3000:]
+        return done.stdout
+
+    return run
 
 
 @pytest.fixture

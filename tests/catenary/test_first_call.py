@@ -4,11 +4,8 @@ reference and compile nothing, with the kernels' statuses and their values to ro
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
-import tempfile
 import textwrap
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -22,26 +19,16 @@ from tension_opt.kernels import launch
 DEFAULT_MIN = 16  # the value in tension_opt.kernels.launch (the conftest sets 1)
 
 
-def test_the_readme_example_compiles_nothing_in_a_fresh_process() -> None:
+def test_the_readme_example_compiles_nothing_in_a_fresh_process(
+    fresh_process: Callable[[str], str],
+) -> None:
     """With an empty kernel cache: distribute and the thesis model on the study robot's
     three poses (12 cables) and on one pose, the coupled model and the forward
     kinematics back from its lengths on one pose start no compilation."""
     script = textwrap.dedent("""
         import numpy as np
-        from numba.core import event
         import tension_opt as to
         import catenary
-
-        compiled = []
-
-        class Count(event.Listener):
-            def on_start(self, ev):
-                compiled.append(ev.data["dispatcher"].py_func.__qualname__)
-
-            def on_end(self, ev):
-                pass
-
-        event.register("numba:compile", Count())
         robot = to.presets.algae_harvester()
         poses = [[0, 0, 0], [-29.4, 10.2, 1.5], [35, 22, 5]]
         to.distribute(robot, poses, "min_sum")
@@ -54,14 +41,10 @@ def test_the_readme_example_compiles_nothing_in_a_fresh_process() -> None:
               abs(back.poses - np.asarray(poses[1])).max() < 1e-6)
         print("compiled:", compiled)
     """)
-    env = dict(os.environ, NUMBA_CACHE_DIR=tempfile.mkdtemp())
-    env.pop("TENSION_OPT_COMPILED_MIN", None)  # the default rule
-    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                          env=env, timeout=600)
-    assert done.returncode == 0, done.stderr[-3000:]
-    assert "compiled: []" in done.stdout, done.stdout[-3000:]
-    assert "statuses: ['converged', 'converged', 'converged'] ['converged']" in done.stdout
-    assert "coupled: ['converged'] ['converged'] True" in done.stdout, done.stdout
+    out = fresh_process(script)
+    assert "compiled: []" in out, out[-3000:]
+    assert "statuses: ['converged', 'converged', 'converged'] ['converged']" in out
+    assert "coupled: ['converged'] ['converged'] True" in out, out
 
 
 @settings(max_examples=15, deadline=None)

@@ -4,11 +4,8 @@ tensions (to rounding) of the compiled kernels."""
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
-import tempfile
 import textwrap
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -40,25 +37,14 @@ def test_a_bad_size_in_the_environment_is_refused(text: str,
         launch.compiled_min_from_environment()
 
 
-def test_small_batches_compile_nothing_in_a_fresh_process() -> None:
+def test_small_batches_compile_nothing_in_a_fresh_process(
+        fresh_process: Callable[[str], str]) -> None:
     """With an empty kernel cache, plain calls on fewer than COMPILED_MIN poses (every
     closed-form objective, a 6-DOF robot, a smoothed sequence, generic backends with
     DAQP's batch among them) start no compilation."""
     script = textwrap.dedent("""
         import numpy as np
-        from numba.core import event
         import tension_opt as to
-
-        compiled = []
-
-        class Count(event.Listener):
-            def on_start(self, ev):
-                compiled.append(ev.data["dispatcher"].py_func.__qualname__)
-
-            def on_end(self, ev):
-                pass
-
-        event.register("numba:compile", Count())
         rng = np.random.default_rng(0)
         study, cogiro = to.presets.algae_harvester(), to.presets.cogiro()
         P = np.column_stack([rng.uniform(-30, 30, 15), rng.uniform(-20, 20, 15),
@@ -73,12 +59,8 @@ def test_small_batches_compile_nothing_in_a_fresh_process() -> None:
             to.distribute(study, P[:3], "min_norm", backend)
         print("compiled:", compiled)
     """)
-    env = dict(os.environ, NUMBA_CACHE_DIR=tempfile.mkdtemp())
-    env.pop("TENSION_OPT_COMPILED_MIN", None)  # the default rule
-    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                          env=env, timeout=600)
-    assert done.returncode == 0, done.stderr[-3000:]
-    assert "compiled: []" in done.stdout, done.stdout[-3000:]
+    out = fresh_process(script)
+    assert "compiled: []" in out, out[-3000:]
 
 
 def _poses(robot: to.CableRobot, count: int, seed: int) -> np.ndarray:
