@@ -29,6 +29,12 @@ ACTIVE_TOL = 1e-6
 #: A bound multiplier (scaled problem, where costs are of order one) above this holds its
 #: bound on the whole optimal face.
 MULTIPLIER_TOL = 1e-6
+#: Relative singular value below which the cone's rows leave a direction free (a ray).
+RANK_TOL = 1e-10
+#: Largest weight, and residual of ``R^T y = 0`` relative to it that counts as zero, in
+#: the positive-span test of the cone of feasible directions (:func:`_cone_has_ray`).
+SPAN_WEIGHT = 1e6
+SPAN_TOL = 1e-8
 
 
 def held_bounds(form: StandardForm, T: NDArray, multipliers: NDArray | None
@@ -57,7 +63,7 @@ def lp_optimum_is_unique(form: StandardForm, T: NDArray, multipliers: NDArray | 
     upper bound, and ``d_i = 0`` where a bound holds by its multiplier
     (:func:`held_bounds`; ``multipliers`` (N, m) of the bounds in the scaled problem,
     optional). That cone lives in a space of dimension ``m - rank``: tested by sign
-    checks in dimension 1 and by a small LP beyond.
+    checks in dimension 1 and by a positive-span test beyond (:func:`_cone_has_ray`).
     """
     N, m = T.shape
     scale = form.typical_tension()
@@ -109,7 +115,37 @@ def lp_optimum_is_unique(form: StandardForm, T: NDArray, multipliers: NDArray | 
 
 
 def _cone_has_ray(basis: NDArray, lower: NDArray, upper: NDArray) -> bool:
-    """Whether ``{z : (B z)_i >= 0 at lower, (B z)_i <= 0 at upper}`` contains ``z != 0``."""
+    """Whether ``{z : (B z)_i >= 0 at lower, (B z)_i <= 0 at upper}`` contains ``z != 0``.
+
+    With ``R`` the constraint rows (``R z <= 0``), the cone is ``{0}`` exactly when the
+    rows positively span the space: ``R`` has full column rank and some ``y > 0`` has
+    ``R^T y = 0`` (the polar of the cone they generate is the whole space). The second
+    is one bounded least-squares problem, ``min ||R^T y||`` over ``1 <= y <= SPAN_WEIGHT``,
+    where the 2 dim linear programs of :func:`_cone_has_ray_lp` cost ten times as much.
+    The cap on the weights keeps two rows that are opposite up to rounding from
+    cancelling the rest with weights of 1e15; a residual within :data:`SPAN_TOL` of the
+    largest weight counts as zero. A cone thinner than that is taken for ``{0}``, and a
+    set that spans only with weights beyond the cap for a ray, which costs the tie-break
+    a stage and never the answer.
+    """
+    from scipy.optimize import lsq_linear
+
+    rows = np.concatenate([-basis[lower], basis[upper]])  # rows . z <= 0
+    dim = basis.shape[1]
+    if len(rows) <= dim:  # fewer than dim + 1 vectors never positively span
+        return True
+    s = np.linalg.svd(rows, compute_uv=False)
+    if not s[0] > 0 or s[dim - 1] <= RANK_TOL * s[0]:  # a direction every row ignores
+        return True
+    fit = lsq_linear(rows.T, np.zeros(dim), bounds=(1.0, SPAN_WEIGHT), method="bvls")
+    if fit.status < 1:  # no convergence: the linear programs decide
+        return _cone_has_ray_lp(basis, lower, upper)
+    return bool(np.linalg.norm(rows.T @ fit.x) > SPAN_TOL * fit.x.max())
+
+
+def _cone_has_ray_lp(basis: NDArray, lower: NDArray, upper: NDArray) -> bool:
+    """:func:`_cone_has_ray` by linear programs: the largest ``+-z_j`` over the cone
+    within the unit box, for each coordinate ``j`` (the reference of the tests)."""
     from scipy.optimize import linprog
 
     rows = np.concatenate([-basis[lower], basis[upper]])  # rows . z <= 0

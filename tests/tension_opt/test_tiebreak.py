@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import tension_opt as to
 from tension_opt.backends.tiebreak import (
+    _cone_has_ray,
+    _cone_has_ray_lp,
     held_bounds,
     low_dim_face_solve,
     lp_optimum_is_unique,
@@ -89,3 +93,43 @@ def test_the_certificates_multipliers_hold_bounds_on_the_face() -> None:
     z = certify_form(strict, point).multipliers.bound_multipliers(3)
     assert held_bounds(strict, point, z)[0].tolist() == [[False, True, True]]
     assert lp_optimum_is_unique(strict, point, z).tolist() == [True]
+
+
+@st.composite
+def _cones(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """An orthonormal basis (m, dim) of a random subspace and random active bounds; some
+    bases repeat a column's direction in rows so that the cone is degenerate."""
+    m = draw(st.integers(3, 9))
+    dim = draw(st.integers(2, min(5, m - 1)))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    raw = rng.standard_normal((m, dim))
+    if draw(st.booleans()):  # rows along few directions: rank-deficient row sets
+        raw[: m // 2] = raw[0] * rng.standard_normal((m // 2, 1))
+    basis = np.linalg.qr(raw)[0]
+    lower = rng.random(m) < draw(st.floats(0.2, 0.9))
+    upper = ~lower & (rng.random(m) < 0.5)
+    return basis, lower, upper
+
+
+@settings(deadline=None)
+@given(_cones())
+def test_the_positive_span_test_agrees_with_the_linear_programs(
+        cone: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+    basis, lower, upper = cone
+    assert _cone_has_ray(basis, lower, upper) == _cone_has_ray_lp(basis, lower, upper)
+
+
+def test_the_cone_test_on_cones_with_known_answers() -> None:
+    # Rows +-e1, +-e2 span the plane positively: only z = 0.
+    basis = np.eye(2)
+    both = np.array([True, True])
+    assert not _cone_has_ray(np.vstack([basis, basis]), np.r_[both, both * False],
+                             np.r_[both * False, both])
+    # A thin cone |z1| <= 1e-6 z2 still holds the ray z = (0, 1).
+    thin = np.array([[1.0, -1e-6], [-1.0, -1e-6]])
+    assert _cone_has_ray(thin, np.zeros(2, bool), np.ones(2, bool))
+    # Three rows at 120 degrees span the plane positively, a fourth does not change that.
+    angles = np.deg2rad([90.0, 210.0, 330.0, 10.0])
+    rows = np.c_[np.cos(angles), np.sin(angles)]
+    assert not _cone_has_ray(rows, np.zeros(4, bool), np.ones(4, bool))
+    assert _cone_has_ray(rows[[0, 1]], np.zeros(2, bool), np.ones(2, bool))
