@@ -123,11 +123,12 @@ def _generic_backends() -> None:
     distribute(study, poses, smoothed, backend)
     if "scipy:highs" in installed:
         distribute(study, poses, "min_sum", "scipy:highs")
-    # The other qpsolvers' sequence loop (its compiled QP and verdict), one serves all.
+    # The other qpsolvers' sequence loop (its compiled QP and verdict), one serves all;
+    # like a batch, a sequence takes it from COMPILED_MIN poses on.
     other = [b for b in ("qpsolvers:piqp", "qpsolvers:osqp", "qpsolvers:clarabel")
              if b in installed][:1]
     for name in other:
-        distribute(study, poses[:2], smoothed, name)
+        distribute(study, poses, smoothed, name)
 
 
 def _timing() -> None:

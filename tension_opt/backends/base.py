@@ -260,11 +260,12 @@ class Backend:
         """Solve one stage (no tie-break). Generic backends override this."""
         raise NotImplementedError
 
-    def runs_sequences(self, options: Mapping[str, Any], smoothed: StandardForm) -> bool:
+    def runs_sequences(self, options: Mapping[str, Any], smoothed: StandardForm,
+                       poses: int) -> bool:
         """Whether :meth:`solve_sequence` runs the poses of a smoothed or rate-limited
         sequence in one compiled loop with these options (else each pose is solved on
         its own form by :meth:`solve`); ``smoothed`` is the form of one pose smoothed
-        against some tensions."""
+        against some tensions, ``poses`` the length of the sequence."""
         return False
 
     def solve_sequence(self, base: StandardForm, smoothing: float, rate: NDArray,

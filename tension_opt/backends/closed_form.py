@@ -97,8 +97,10 @@ class ClosedFormBackend(Backend):
         return RawResult(T, status, np.zeros(form.N, dtype=int), 0.0, elapsed, unique, infeas,
                          accuracy_target=target)
 
-    def runs_sequences(self, options: Mapping[str, Any], smoothed: StandardForm) -> bool:
-        return self.compiled and compiled_for(smoothed.N)
+    def runs_sequences(self, options: Mapping[str, Any], smoothed: StandardForm,
+                       poses: int) -> bool:
+        # The size rule counts the sequence's poses, not the one-pose form.
+        return self.compiled and compiled_for(poses)
 
     def solve_sequence(self, base: StandardForm, smoothing: float, rate: NDArray,
                        last: NDArray, start: int, run: SequenceRun,

@@ -169,13 +169,15 @@ class QpsolversBackend(Backend):
                 with_objective_scale(self.solver, settings, int(p), user) for p in powers]
             return self._solve_generic(batch, settings, warm, setup, limit, per_pose)
 
-    def runs_sequences(self, options: Mapping[str, Any], smoothed: StandardForm) -> bool:
+    def runs_sequences(self, options: Mapping[str, Any], smoothed: StandardForm,
+                       poses: int) -> bool:
         """The smoothed poses of a sequence run in one loop: through DAQP's C solver
         called from compiled code (where :mod:`tension_opt.kernels.daqp_native` can),
         or, for the other solvers, each pose's solver call from Python between two
         compiled steps (its QP built, its answer judged). Not where smoothed poses are
-        LPs (a rate limit alone), which the loop leaves to the pose-by-pose path."""
-        if self.solver in _NO_SEQUENCE or smoothed.kind != "qp":
+        LPs (a rate limit alone), which the loop leaves to the pose-by-pose path, and
+        not below the size rule's count of poses (:func:`compiled_for`)."""
+        if self.solver in _NO_SEQUENCE or smoothed.kind != "qp" or not compiled_for(poses):
             return False
         if self.solver != "daqp":
             return True

@@ -117,7 +117,7 @@ def _compiled_sequence(backend: Backend, problem: TensionProblem, unsmoothed: Te
     # The loop takes the poses the backend takes once smoothed (a QP-only solver the
     # smoothed ones; the unsmoothed ones go to the pose-by-pose path, which chooses).
     smoothed = problem.standard_form_from(robot, A[:1], b[:1], np.zeros(robot.m))
-    if backend.unsupported(smoothed) or not backend.runs_sequences(options, smoothed):
+    if backend.unsupported(smoothed) or not backend.runs_sequences(options, smoothed, len(A)):
         return None
     base = unsmoothed.standard_form_from(robot, A, b)
     if base.minmax is not None or base.G is not None:

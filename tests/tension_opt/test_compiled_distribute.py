@@ -383,6 +383,39 @@ def test_compiled_sequence_equals_pose_by_pose(robot_name: str, problem: to.Tens
     np.testing.assert_array_equal(fast.form.previous, slow.form.previous)
 
 
+@pytest.mark.parametrize("backend", ["closed_form", "qpsolvers:osqp"])
+def test_the_size_rule_counts_the_poses_of_a_sequence(backend: str,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    """Under the default size rule a smoothed path of at least ``COMPILED_MIN`` poses
+    runs in the backend's compiled loop (its one-pose forms do not count as batches of
+    one), a shorter one pose by pose (by the numpy references where the backend has
+    them); the first poses' statuses are the same, their tensions to 1e-12."""
+    if backend not in to.available_backends():
+        pytest.skip(f"{backend} is not installed")
+    robot = presets.algae_harvester()
+    ends = random_feasible_poses(robot, 2, 8)
+    poses = ends[0] + np.linspace(0.0, 1.0, launch.DEFAULT_COMPILED_MIN)[:, None] * (
+        ends[1] - ends[0])
+    problem = to.TensionProblem("min_norm", smoothing=0.5)
+    loops: list[int] = []
+    cls = ClosedFormBackend if backend == "closed_form" else QpsolversBackend
+    original = cls.solve_sequence
+
+    def counted(self: object, *args: object, **kwargs: object) -> int:
+        loops.append(1)
+        return original(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(cls, "solve_sequence", counted)
+    monkeypatch.setattr(launch, "COMPILED_MIN", launch.DEFAULT_COMPILED_MIN)
+    short = to.distribute(robot, poses[:-1], problem, backend)
+    assert not loops
+    full = to.distribute(robot, poses, problem, backend)
+    assert loops
+    assert (full.status == to.Status.OPTIMAL).all()
+    np.testing.assert_array_equal(short.status, full.status[:-1])
+    np.testing.assert_allclose(short.tensions, full.tensions[:-1], rtol=1e-12)
+
+
 DAQP_SEQUENCES = [to.TensionProblem("min_sum", smoothing=1e-3),
                   to.TensionProblem("min_norm", smoothing=0.5),
                   to.TensionProblem("min_sum", rate_limit=300.0),  # LPs: pose by pose
