@@ -299,7 +299,10 @@ def thesis_sag(robot: CableRobot, poses: ArrayLike, tensions: ArrayLike) -> dict
     x = np.hypot(rel[..., 0], rel[..., 1])
     z = rel[..., 2]
     w = robot.cable.weight_per_length(robot.g)
-    res = solve_length(x, z, np.maximum(T, 0.0), w, EA=robot.cable.EA, end="B")
+    # The numpy reference (lengths to 1e-11 of the kernels'): a metric column is no
+    # reason to compile the catenary kernels in the main job.
+    res = solve_length(x, z, np.maximum(T, 0.0), w, EA=robot.cable.EA, end="B",
+                       compiled=False)
     L = np.asarray(res.L0, dtype=float)
     sag_mm = 1e3 * (L - geometry.lengths)
     e_h = rel[..., :2] / np.maximum(x, 1e-300)[..., None]

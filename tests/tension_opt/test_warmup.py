@@ -111,3 +111,12 @@ def test_the_command_line_warms_a_family() -> None:
                           "--jobs", "1", "--no-progress"],
                          capture_output=True, text=True, timeout=600)
     assert bad.returncode == 2 and "unknown kernel families" in bad.stderr
+
+
+def test_every_family_has_a_compile_cost_that_orders_the_parallel_warm_up() -> None:
+    """The hints name the families there are (a renamed family would start last), and the
+    longest of the main job's families starts first."""
+    families = warmup.every_family()
+    assert set(warmup.COMPILE_SECONDS) == set(families)
+    first = max(warmup.DISTRIBUTION_FAMILIES, key=warmup.COMPILE_SECONDS.__getitem__)
+    assert first == "certified pass"
