@@ -84,24 +84,17 @@ def _certified_pass() -> None:
 def _distributor() -> None:
     from tension_opt.backends.registry import available_backends
     from tension_opt.distribution.distributor import Distributor
+    from tension_opt.problem.form import TensionProblem
     from tension_opt.robot import presets
 
     study, cogiro = presets.algae_harvester(), presets.cogiro()
-    # The certified kernels of one pose (tension_opt.kernels.distributor), and DAQP's.
+    # The certified kernel of one pose (tension_opt.kernels.distributor), and DAQP's.
     Distributor(study)(_study_poses(1)[0])
     Distributor(cogiro, "min_norm")(_spatial_poses(1)[0])
     if "qpsolvers:daqp" in available_backends():  # the compiled DAQP path
         Distributor(study, "min_norm", "qpsolvers:daqp")(_study_poses(1)[0])
-
-
-def _distributor_streams() -> None:
-    from tension_opt.distribution.distributor import Distributor
-    from tension_opt.problem.form import TensionProblem
-    from tension_opt.robot import presets
-
-    study = presets.algae_harvester()
-    # A stream, and independent poses each with its own previous tensions: a family of
-    # its own, so that two warm-up processes share the distributor's compile time.
+    # A stream, and independent poses each with its own previous tensions: loops that
+    # call the one-pose kernel, so they belong with it.
     smoothed = Distributor(study, TensionProblem("min_norm", smoothing=1.0))
     poses = _study_poses(4)
     smoothed(poses)
@@ -149,7 +142,6 @@ FAMILIES: dict[str, Callable[[], None]] = {
     "closed form": _closed_form,
     "certified pass": _certified_pass,
     "real-time distributor": _distributor,
-    "real-time distributor: streams": _distributor_streams,
     "certificate of generic solvers": _generic_backends,
     "time-optimal timing": _timing,
 }
@@ -159,15 +151,14 @@ FAMILIES: dict[str, Callable[[], None]] = {
 #: warm-ups start the longest first, so that no long family starts last and runs
 #: alone. Only the order depends on them; a family not named here starts last.
 COMPILE_SECONDS: dict[str, float] = {
-    "real-time distributor": 150.0,
     "catenary: coupled sag IK": 70.0,
+    "real-time distributor": 60.0,
     "certified pass": 55.0,
     "catenary: single cable": 40.0,
     "closed form": 36.0,
     "catenary: platform stiffness": 35.0,
     "catenary: thesis sag IK": 24.0,
     "certificate of generic solvers": 17.0,
-    "real-time distributor: streams": 15.0,
     "time-optimal timing": 15.0,
     "robot geometry": 2.0,
 }

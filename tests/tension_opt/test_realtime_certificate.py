@@ -47,14 +47,20 @@ ATOL = 1e-11
 MEASURES = ("primal_residual", "dual_residual", "duality_gap")
 
 
+#: Rounding of a measure of the scaled problem (of order one): two answers that agree
+#: to the last bits may still differ by this much in a dual residual.
+ROUNDING = 1e-13
+
+
 def _near_target(sol: to.TensionSolution, target: float) -> np.ndarray:
-    """Poses with a measure within a factor 2 of the target, where rounding may tip
-    the verdict either way."""
+    """Poses with a measure within a factor 2 of the target, or within the measures'
+    rounding of it (an accuracy of 1e-14 is at that level), where rounding may tip the
+    verdict either way."""
     near = np.zeros(sol.N, dtype=bool)
     for name in MEASURES:
         value = getattr(sol, name)
         with np.errstate(invalid="ignore"):
-            near |= (value > 0.5 * target) & (value < 2.0 * target)
+            near |= (value > 0.5 * target - ROUNDING) & (value < 2.0 * target + ROUNDING)
     return near
 
 
