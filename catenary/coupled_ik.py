@@ -38,6 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from tension_opt import CableRobot
 from tension_opt.kernels import closed_form as cf
+from tension_opt.kernels.arrays import writable
 from tension_opt.kernels.first_use import announce
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, rotation
 from tension_opt.problem.form import TensionProblem, as_problem
@@ -474,7 +475,7 @@ class CoupledIK:
         if self._data is not None:
             bufs = (np.empty(m), np.empty(n), np.empty((m, _GEO)), np.empty((m, 5)),
                     np.empty((m, 3)), np.empty(self._work))
-            home = robot.default_home()
+            home = writable(robot.default_home())  # the type every pose has (_vector)
             if self._solve(home, self._no_wrench, None, bufs)[0] == SETTLED:
                 self._seed = (bufs[0].copy(), bufs[1].copy())
 
@@ -542,7 +543,9 @@ class CoupledIK:
     def _vector(self, name: str, value: ArrayLike) -> NDArray:
         """``value`` as a float vector of ``robot.dof`` entries, or the error."""
         try:
-            v = np.ascontiguousarray(value, dtype=float)
+            # Writable always: a read-only pose is another type to numba, which would
+            # compile the whole pose solve a second time for it.
+            v = writable(value)
         except (TypeError, ValueError) as exc:
             raise InvalidCableError(f"{name} must be numbers; got {name}={value!r}") from exc
         if v.shape != (self.robot.dof,):

@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 import tension_opt
 from tension_opt.errors import TensionOptError
+from tension_opt.kernels.arrays import writable
 from tension_opt.kernels.closed_form import solve_one
 from tension_opt.kernels.first_use import announce
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, kind_code, rotation
@@ -173,18 +174,21 @@ class CompiledThesis:
         self.kind = kind_code(robot.kind)
         self.anchors = np.ascontiguousarray(robot.anchors, dtype=float)
         self.attachments = np.ascontiguousarray(robot.attachments, dtype=float)
-        self.com = np.ascontiguousarray(robot.com, dtype=float)
+        self.com = writable(robot.com)
         self.weight = float(robot.mass * robot.g)
         self.inv_EA = 0.0 if math.isinf(self.EA) else float(1.0 / self.EA)
         self.work = robot.dof * robot.m + 2 * robot.dof + 5
         self.no_wrench = np.zeros(robot.dof)
         m = robot.m
         announce("thesis sag IK", thesis_pose, thesis_closed_form)
-        # Called with exactly these types (contiguous float64 arrays, see solve).
+        # Called with exactly these types, those thesis_closed_form passes (a writable
+        # centre of mass, a strided 2-D view of the output, which numba types "A"
+        # inside a kernel; numpy calls a view of a (7, 1, m) array contiguous, so the
+        # example is a view of a (7, 2, m) one): one compiled copy of the pose.
         self._thesis_pose = entry_point(
             thesis_pose, self.kind, self.anchors, self.attachments, self.com, self.weight,
             self.no_wrench, self.no_wrench, np.zeros(m), self.w, self.inv_EA,
-            np.empty((7, m)), np.empty((m, 3)), np.empty(self.work))
+            np.empty((7, 2, m))[:, 0, :], np.empty((m, 3)), np.empty(self.work))
         # The closed form and the catenaries in one compiled call, where they apply.
         self._data = self.distributor.closed_form_data
         self._fused = None
@@ -223,13 +227,13 @@ class CompiledThesis:
         if straight.status != Status.OPTIMAL:
             return None
         m = self.robot.m
-        out, forces = np.empty((7, m)), np.empty((m, 3))
+        out, forces = np.empty((7, 1, m)), np.empty((m, 3))
         w = self.no_wrench if wrench is None else wrench
         tensions = np.ascontiguousarray(straight.tensions, dtype=np.float64)
         solved, residual = self._thesis_pose(
             self.kind, self.anchors, self.attachments, self.com, self.weight, pose, w,
-            tensions, self.w, self.inv_EA, out, forces, np.empty(self.work))
-        return (out[:, None], forces[None], residual) if solved else None
+            tensions, self.w, self.inv_EA, out[:, 0, :], forces, np.empty(self.work))
+        return (out, forces[None], residual) if solved else None
 
 
 def thesis_solver(robot: tension_opt.CableRobot, objective: Any, backend: Any,

@@ -63,8 +63,9 @@ def _stiffness() -> None:
     out = compiled_stiffness(robot, pack(robot), code, pose[None], np.zeros((1, n)),
                              tensions[None])
     # The parallel variant too (the launch rule picks it for large batches).
+    # The argument types compiled_stiffness passes (writable poses).
     for kernel in (stiffness_batch, stiffness_parallel):
-        kernel(pack(robot), code, pose[None], np.zeros((1, n)), tensions[None],
+        kernel(pack(robot), code, np.array(pose[None]), np.zeros((1, n)), tensions[None],
                np.zeros((1, m)), np.zeros((1, m, 3)), np.zeros((1, m)), out.stiffness,
                out.cable_stiffness, out.platform_forces, out.tensions, out.lengths,
                out.equilibrium_residual, out.codes)
