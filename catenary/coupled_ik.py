@@ -339,7 +339,10 @@ def coupled_pose(data: NDArray, params: NDArray, pose: NDArray, wrench: NDArray,
                           c) and add_curvature(kind, geo, T, lam, w, inv_EA, A, bs, lbs, q,
                                                c, curv, col, sol)):
             return FALLBACK, its
-        code = cf.solve_form(A, bs, lbs, ubs, q, c, terms[2], False, data[6], Tn, cf_work)[0]
+        # No min-max term: a bool that is not the literal False (which would compile
+        # solve_form a second time).
+        code = cf.solve_form(A, bs, lbs, ubs, q, c, terms[2], Tn.size < 0, data[6], Tn,
+                             cf_work)[0]
         if code == cf.CODE_FALLBACK:
             return FALLBACK, its
         if code != 0 and code != 3:  # no solution of the linearisation: restart

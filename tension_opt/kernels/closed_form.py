@@ -580,6 +580,9 @@ def solve_forms_sequence(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0:
     q, c, lb, ub, rest = work[:m], work[m:2 * m], work[2 * m:3 * m], work[3 * m:4 * m], \
         work[4 * m:]
     v = np.ones(m)
+    # False (no min-max term), as a bool numba does not type as the literal False: a
+    # literal would compile solve_form a second time.
+    minmax = v.size < 0
     for k in range(start, N):
         form_terms(q0[k], c0[k], lb0[k], ub0[k], smoothing, rate, last, has_last, q, c, lb,
                    ub)
@@ -588,7 +591,7 @@ def solve_forms_sequence(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0:
         quadratic = False
         for i in range(m):
             quadratic = quadratic or q[i] != 0.0
-        code, unique, infeas = form_pose(A[k], b[k], lb, ub, q, c, v, False, quadratic,
+        code, unique, infeas = form_pose(A[k], b[k], lb, ub, q, c, v, minmax, quadratic,
                                          tol_factor, T[k], rest)
         if code >= 4:
             return k
