@@ -567,22 +567,19 @@ def solve_forms_sequence(A: NDArray, b: NDArray, lb0: NDArray, ub0: NDArray, q0:
                          c0: NDArray, smoothing: float, rate: NDArray, tol_factor: float,
                          last: NDArray, has_last: bool, T: NDArray, info: NDArray,
                          codes: NDArray, start: int) -> int:
-    """Poses ``start, start + 1, ...`` of a sequence (``distribute``'s own structure
-    matrices ``A`` (N, n, m) and ``b`` (N, n), unsmoothed terms ``lb0 ... c0`` (N, m)),
-    each smoothed against ``last`` (m,) as its one-pose form (:func:`form_terms`) and
-    solved as :func:`solve_forms` solves that form; ``last`` takes the tensions of every
-    pose the backend reports optimal (codes 0 and 3), as the sequence does. Writes
-    ``T``, ``info`` (unique, infeasibility) and ``codes``; stops at a pose the numpy path
-    or another backend must answer (data beyond :data:`HUGE`, codes from the solver
-    error on) and returns its index (N when done)."""
+    """Poses ``start, start + 1, ...`` of a sequence (``distribute``'s ``A`` (N, n, m)
+    and ``b`` (N, n), unsmoothed terms ``lb0 ... c0`` (N, m)), each smoothed against
+    ``last`` (m,) as its one-pose form (:func:`form_terms`) and solved as
+    :func:`solve_forms` solves that form; ``last`` takes the tensions of every pose
+    reported optimal (codes 0 and 3). Writes ``T``, ``info`` (unique, infeasibility) and
+    ``codes``; stops at a pose the numpy path or another backend must answer (data
+    beyond :data:`HUGE`, codes from the solver error on): returns its index (N if none)."""
     N, n, m = A.shape
     work = np.empty(4 * m + work_size(m, n))
     q, c, lb, ub, rest = work[:m], work[m:2 * m], work[2 * m:3 * m], work[3 * m:4 * m], \
         work[4 * m:]
     v = np.ones(m)
-    # False (no min-max term), as a bool numba does not type as the literal False: a
-    # literal would compile solve_form a second time.
-    minmax = v.size < 0
+    minmax = v.size < 0  # False, but not the literal (which compiles solve_form again)
     for k in range(start, N):
         form_terms(q0[k], c0[k], lb0[k], ub0[k], smoothing, rate, last, has_last, q, c, lb,
                    ub)
