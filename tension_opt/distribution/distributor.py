@@ -375,7 +375,11 @@ class Distributor:
         if self._data is None or (self._daqp is not None and not stream):
             prev = previous if independent else self._stream_start(previous)
             return self._numpy(p, wrench, prev, np.arange(len(p)), None)
-        w = self._wrenches(wrench)
+        from tension_opt.kernels.arrays import writable
+
+        # Writable arrays: a read-only one (the user's, or broadcast_to's) is another
+        # type to numba, which would compile the loops and the pose kernel again.
+        p, w = writable(p), writable(self._wrenches(wrench))
         if self._daqp is not None:
             return self._daqp_stream(p, w, wrench, previous)
         if stream:
