@@ -458,9 +458,10 @@ class Distributor:
         certified real-time kernel; the poses it leaves by the numpy path."""
         N, m = len(p), self.robot.m
         has_prev = previous is not None
-        # A writable copy: a read-only array (broadcast_to's) is another type to numba,
-        # which would compile the whole certified pose a second time for it.
-        prev = (np.array(np.broadcast_to(as_finite("previous", previous), (N, m)), order="C")
+        from tension_opt.kernels.arrays import writable
+
+        # Writable (broadcast_to's view is read-only, another type to numba).
+        prev = (writable(np.broadcast_to(as_finite("previous", previous), (N, m)))
                 if previous is not None else self._no_prev[None, :])
         T, info = np.empty((N, m)), np.empty((N, self._kernels.INFO))
         codes = np.empty(N, dtype=np.int64)
