@@ -44,6 +44,7 @@ __all__ = [
     "extreme_tensions",
     "force_slope",
     "platform_forces",
+    "refuse_pulleys",
     "taut_catenaries",
 ]
 
@@ -102,6 +103,7 @@ def cable_planes(robot: CableRobot, poses: NDArray) -> CablePlanes:
     -------
     CablePlanes
     """
+    refuse_pulleys(robot)
     geometry = robot.cable_geometry(poses, check=False)
     d = geometry.vectors
     x = np.hypot(d[..., 0], d[..., 1])
@@ -117,11 +119,23 @@ def cable_planes(robot: CableRobot, poses: NDArray) -> CablePlanes:
 
 def check_robot(robot: object) -> None:
     """Raise :class:`InvalidCableError` unless ``robot`` is a
-    :class:`tension_opt.CableRobot`."""
+    :class:`tension_opt.CableRobot` without guide pulleys (:func:`refuse_pulleys`)."""
     if not isinstance(robot, CableRobot):
         raise InvalidCableError(
             f"robot must be a tension_opt.CableRobot (e.g. tension_opt.robot.presets."
             f"algae_harvester()); got {type(robot).__name__}")
+    refuse_pulleys(robot)
+
+
+def refuse_pulleys(robot: CableRobot) -> None:
+    """Raise :class:`InvalidCableError` for a robot with guide pulleys: a sagging cable
+    leaves its pulley tangentially, at another point than the straight cable, and the
+    robot-level sag models here span from fixed drawing points."""
+    if robot.has_pulleys:
+        raise InvalidCableError(
+            "the sag models span each cable from a fixed drawing point; a robot with guide "
+            "pulleys is not modelled with sag: use its straight kinematics "
+            "(robot.inverse_kinematics) or robot.with_(pulleys=None)")
 
 
 def cable_data(robot: CableRobot) -> tuple[float, float]:
@@ -130,8 +144,9 @@ def cable_data(robot: CableRobot) -> tuple[float, float]:
     Raises
     ------
     InvalidCableError
-        If the robot has no cable properties.
+        If the robot has no cable properties, or has guide pulleys (:func:`refuse_pulleys`).
     """
+    refuse_pulleys(robot)
     if robot.cable is None:
         raise InvalidCableError(
             f"robot {robot.name!r} has no cable properties: build it with "

@@ -22,7 +22,7 @@ from tension_opt.errors import (
     UnsupportedProblemError,
 )
 from tension_opt.problem.form import Objective, TensionProblem
-from tension_opt.robot import CableProperties, CableRobot, caspr, presets
+from tension_opt.robot import CableProperties, CableRobot, Pulley, caspr, presets
 from tension_opt.robot.caspr import load_caspr
 from tension_opt.status import Status
 from tension_opt.workspace import WorkspaceResult, workspace_grid, wrench_feasible_workspace
@@ -42,6 +42,7 @@ __all__ = [
     "Distributor",
     "InvalidInputError",
     "Objective",
+    "Pulley",
     "RealtimeResult",
     "RobotFileError",
     "SolverError",

@@ -198,9 +198,12 @@ class Distributor:
 
     # ------------------------------------------------------------------ setup
     def _kernel_covers(self) -> bool:
-        """Whether the robot kind and the per-pose data suit the compiled kernels."""
+        """Whether the robot (kind, no guide pulleys) and the per-pose data suit the
+        compiled kernels."""
         problem = self.problem
         if self.robot.kind not in ("point3", "planar_point2", "planar3", "spatial6"):
+            return False
+        if self.robot.has_pulleys:  # the kernels draw each cable from a fixed point
             return False
         return not any(x is not None and np.ndim(x) > 1
                        for x in (problem.t_min, problem.t_max, problem.reference))

@@ -110,7 +110,7 @@ def pack_problem(robot: Any, problem: Any, target: float) -> NDArray:
     target : float
         Accuracy target (:func:`tension_opt.certify.certificate.accuracy_target`).
     """
-    from tension_opt.kernels.geometry import kind_code
+    from tension_opt.kernels.geometry import robot_kind_code
 
     m = robot.m
     lb, ub = problem.bounds(robot, 1)
@@ -123,7 +123,7 @@ def pack_problem(robot: Any, problem: Any, target: float) -> NDArray:
     minmax = terms.minmax is not None
     v = np.ones(m) if not minmax else np.asarray(terms.minmax, dtype=float)
     stacked = np.stack([terms.q[0], terms.c[0], v, lb[0], ub[0], rate])
-    return pack(kind_code(robot.kind), robot.anchors, robot.attachments, robot.com,
+    return pack(robot_kind_code(robot), robot.anchors, robot.attachments, robot.com,
                 robot.mass * robot.g, 1e-12 * max(1.0, float(np.abs(robot.anchors).max())),
                 float(problem.smoothing), max(FEASIBILITY_TOL, 10.0 * target), minmax,
                 stacked)

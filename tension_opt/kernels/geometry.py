@@ -31,6 +31,7 @@ __all__ = [
     "geometry_serial",
     "kind_code",
     "robot_geometry",
+    "robot_kind_code",
     "rotation",
 ]
 
@@ -48,6 +49,16 @@ def kind_code(kind: str) -> int:
         raise InvalidInputError(
             f"no compiled geometry for robot kind {kind!r}; known: {sorted(KIND_CODES)}"
         ) from None
+
+
+def robot_kind_code(robot: Any) -> int:
+    """:func:`kind_code` of a robot's kind; an error for a robot with guide pulleys
+    (the kernels draw each cable from a fixed point)."""
+    if getattr(robot, "pulleys", None) is not None:
+        raise InvalidInputError("the compiled kernels draw each cable from a fixed point: a "
+                                "robot with guide pulleys takes the numpy path (backend "
+                                "'closed_form' with fewer poses, or another backend)")
+    return kind_code(robot.kind)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -200,9 +211,11 @@ def geometry_serial(kind: int, anchors: NDArray, attachments: NDArray, com: NDAr
 def compiled_kind(robot: Any) -> int:
     """The kernels' code of a robot's kind (:data:`KIND_CODES`), or -1 where the
     kernels do not know it (another kind, or a pattern of its own under a known
-    name)."""
+    name, or a robot with guide pulleys)."""
     code = KIND_CODES.get(robot.kind, -1)
     if code < 0 or type(robot.pattern) is not type(KINDS[robot.kind]):
+        return -1
+    if getattr(robot, "pulleys", None) is not None:  # the kernels draw from fixed points
         return -1
     return code
 

@@ -1,4 +1,6 @@
-"""The robot: its model (:mod:`~tension_opt.robot.model`), description files
+"""The robot: its model (:mod:`~tension_opt.robot.model`; the cables of a batch of poses
+in :mod:`~tension_opt.robot.geometry`, guide pulleys in
+:mod:`~tension_opt.robot.pulleys`), description files
 (:mod:`~tension_opt.robot.files`, :mod:`~tension_opt.robot.formats`), the CASPR import
 (:mod:`~tension_opt.robot.caspr`) and the presets with their data
 (:mod:`~tension_opt.robot.presets`, ``data/``).
@@ -8,18 +10,15 @@
 """
 
 from tension_opt.checks import as_float_array
-from tension_opt.robot.model import (
-    CableGeometry,
-    CableProperties,
-    CableRobot,
-    StraightForwardKinematicsResult,
-    box_inertia,
-)
+from tension_opt.robot.geometry import CableGeometry, StraightForwardKinematicsResult
+from tension_opt.robot.model import CableProperties, CableRobot, box_inertia
+from tension_opt.robot.pulleys import Pulley
 
 __all__ = [
     "CableGeometry",
     "CableProperties",
     "CableRobot",
+    "Pulley",
     "StraightForwardKinematicsResult",
     "as_float_array",
     "box_inertia",

@@ -50,6 +50,7 @@ from tension_opt.robot.formats import (
     parse_text,
     yaml_text,
 )
+from tension_opt.robot.pulleys import Pulley
 
 __all__ = [
     "FORMAT_VERSION",
@@ -152,6 +153,15 @@ class CableSpec(_Strict):
         return self
 
 
+class PulleySpec(_Strict):
+    """A swivel guide pulley at a cable's drawing point (:class:`tension_opt.Pulley`)."""
+
+    radius: _Number = Field(gt=0, description="Wheel radius (m), > 0.")
+    axis: _Vector3 = Field(description="Swivel axis [x, y, z] in the base frame: from the "
+                           "drawing point towards the side the cable comes from (its winch); "
+                           "normalised on reading.")
+
+
 class RobotDescription(_Strict):
     """One robot, as written in a robot file. Every quantity is in SI units."""
 
@@ -189,6 +199,9 @@ class RobotDescription(_Strict):
         None, min_length=1, description="Vertices of the platform as a convex polyhedron, "
         "[x, y, z] each in the platform frame (m), for the cable-platform interference "
         "(optional; default the convex hull of the attachments).")
+    pulleys: list[PulleySpec | None] | None = Field(
+        None, description="A swivel guide pulley per cable, in the order of anchors, or "
+        "null for a cable drawn from a fixed point (optional; default none).")
 
     @field_validator("kind")
     @classmethod
@@ -307,6 +320,9 @@ def _consistency(d: RobotDescription) -> list[tuple[tuple[str | int, ...], str]]
         for i in np.flatnonzero(low > high)[:1]:
             found.append((("t_min",), f"cable {i}: t_min = {float(low[i])!r} exceeds t_max "
                           f"= {float(high[i])!r}; lower t_min or raise t_max"))
+    if d.pulleys is not None and len(d.pulleys) != m:
+        found.append((("pulleys",), f"has {len(d.pulleys)} entries for {m} cables: give one "
+                      "per cable (null for a cable without a pulley)"))
     pattern = KINDS[d.kind]
     if d.home is not None and len(d.home) != pattern.pose_size:
         found.append((("home",), f"has {len(d.home)} entries but a {d.kind} pose has "
@@ -390,6 +406,9 @@ def robot_arguments(description: RobotDescription, cable_type: _CableType
         "inertia": None if d.inertia is None else np.array(d.inertia, dtype=float),
         "platform_hull": (None if d.platform_hull is None
                           else np.array(d.platform_hull, dtype=float)),
+        "pulleys": None if d.pulleys is None else [
+            None if q is None else Pulley(q.radius, np.array(q.axis, dtype=float))
+            for q in d.pulleys],
     }
 
 
@@ -450,6 +469,9 @@ class _DescribedRobot(Protocol):
     @property
     def platform_hull(self) -> NDArray | None: ...
 
+    @property
+    def pulleys(self) -> tuple[Pulley | None, ...] | None: ...
+
 
 def _per_cable(values: NDArray | float) -> float | list[float]:
     """One number when every cable has the same (bit for bit, so -0.0 stays), else a list."""
@@ -483,6 +505,10 @@ def robot_document(robot: _DescribedRobot) -> dict[str, Any]:
         document["home"] = np.asarray(robot.home, dtype=float).tolist()
     if robot.platform_hull is not None:
         document["platform_hull"] = np.asarray(robot.platform_hull, dtype=float).tolist()
+    if robot.pulleys is not None:
+        document["pulleys"] = [None if q is None else {"radius": float(q.radius),
+                                                       "axis": q.axis.tolist()}
+                               for q in robot.pulleys]
     return document
 
 

@@ -21,7 +21,6 @@ from os import PathLike
 from typing import Literal
 
 import numpy as np
-import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.checks import (
@@ -39,6 +38,8 @@ from tension_opt.errors import InvalidInputError
 from tension_opt.kernels.first_use import announce
 from tension_opt.kernels.launch import compiled_for
 from tension_opt.kinds import MotionPattern, get_kind
+from tension_opt.robot.geometry import CableGeometry, StraightForwardKinematicsResult
+from tension_opt.robot.pulleys import Pulley, check_pulleys, pulley_exits
 from tension_opt.status import STATUS_DTYPE, Status
 
 RobotKind = Literal["point3", "planar_point2", "planar3", "spatial6"]
@@ -136,6 +137,10 @@ class CableRobot:
         Used by the dynamics (:mod:`tension_opt.dynamics`) and the natural frequencies.
     platform_hull : array_like, shape (k, 3), optional
         Platform polyhedron's vertices, platform frame (m); None: the attachments' hull.
+    pulleys : sequence of Pulley or None, length m, optional
+        A swivel guide pulley at each cable's drawing point, or None for a cable drawn
+        from a fixed point (:mod:`tension_opt.robot.pulleys`). Stored as a tuple, or
+        None when no cable has one (a robot without pulleys answers as before).
     """
 
     anchors: NDArray
@@ -151,6 +156,7 @@ class CableRobot:
     name: str = "cable robot"
     inertia: NDArray | None = None
     platform_hull: NDArray | None = None
+    pulleys: tuple[Pulley | None, ...] | None = None
     pattern: MotionPattern = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -192,6 +198,7 @@ class CableRobot:
                                     f"{anchors[pair[0]].tolist()}: each cable needs its own "
                                     "drawing point")
         home = None if self.home is None else as_finite("home", self.home, (self.dof,))
+        object.__setattr__(self, "pulleys", check_pulleys(self.pulleys, m))
         hull = None if (ph := self.platform_hull) is None else as_finite("platform_hull", ph)
         if hull is not None and (hull.ndim != 2 or hull.shape[1:] != (3,) or not len(hull)):
             raise InvalidInputError(f"platform_hull must have shape (k, 3), got {hull.shape}")
@@ -227,6 +234,11 @@ class CableRobot:
     def wrench_rows(self) -> tuple[int, ...]:
         """Rows of the spatial wrench (fx, fy, fz, mx, my, mz) that the kind keeps."""
         return self.pattern.wrench_rows
+
+    @property
+    def has_pulleys(self) -> bool:
+        """Whether some cable leaves over a guide pulley (:attr:`pulleys`)."""
+        return self.pulleys is not None
 
     @property
     def weight(self) -> float:
@@ -295,9 +307,11 @@ class CableRobot:
         Returns
         -------
         lengths : ndarray, shape (N, m)
-            Distance from attachment point to drawing point (m).
+            Distance from attachment point to drawing point (m); over a guide pulley,
+            the wrapped arc plus the free span ``|B - T|``.
         unit_vectors : ndarray, shape (N, m, 3)
-            Unit vectors from the attachment point toward the drawing point.
+            Unit vectors from the attachment point toward the drawing point (over a
+            pulley: toward the point ``T`` where the cable leaves it).
 
         Raises
         ------
@@ -305,7 +319,7 @@ class CableRobot:
             If a pose puts an attachment point on its drawing point (zero-length cable).
         """
         geometry = self.cable_geometry(poses)
-        return geometry.lengths, geometry.unit
+        return geometry.total_lengths, geometry.unit
 
     def cable_geometry(self, poses: ArrayLike, *, check: bool = True) -> CableGeometry:
         """Straight cables of a batch of poses: the one place cable vectors are computed.
@@ -340,16 +354,43 @@ class CableRobot:
             raise InvalidInputError(
                 f"pose {k} ({p[k].tolist()}) is too far from the drawing points: its cable "
                 "lengths overflow")
+        wrapped = None
+        if self.pulleys is not None:
+            vectors, lengths, wrapped = self._over_pulleys(position[:, None, :] + arms,
+                                                           vectors, lengths)
         geometry = CableGeometry(p, position, R, arms, vectors, lengths,
-                                 1e-12 * max(1.0, float(np.abs(self.anchors).max())))
+                                 1e-12 * max(1.0, float(np.abs(self.anchors).max())), wrapped)
         if check and geometry.degenerate.any():
             k = int(np.argmax(geometry.degenerate))
+            if wrapped is not None and np.isnan(wrapped[k]).any():
+                i = int(np.argmax(np.isnan(wrapped[k])))
+                raise InvalidInputError(
+                    f"pose {k} ({p[k].tolist()}) puts cable {i}'s attachment point on its "
+                    "pulley's swivel axis or wheel: the pulley has no exit point")
             i = int(np.argmax(lengths[k] <= geometry.zero_length))
             raise InvalidInputError(
                 f"pose {k} ({p[k].tolist()}) puts cable {i} on its drawing point "
                 f"{self.anchors[i].tolist()}: zero-length cable"
             )
         return geometry
+
+    def _over_pulleys(self, points: NDArray, vectors: NDArray, lengths: NDArray
+                      ) -> tuple[NDArray, NDArray, NDArray]:
+        """Free-span vectors and lengths (N, m, 3), (N, m) of cables over their
+        pulleys, and the wrapped lengths (N, m) (zero without a pulley, NaN where a
+        pulley has no exit point)."""
+        assert self.pulleys is not None
+        idx = [i for i, q in enumerate(self.pulleys) if q is not None]
+        chosen = [q for q in self.pulleys if q is not None]
+        radii = np.array([q.radius for q in chosen])
+        exits = pulley_exits(self.anchors[idx], np.array([q.axis for q in chosen]), radii,
+                             points[:, idx])
+        vectors, lengths = vectors.copy(), lengths.copy()
+        vectors[:, idx] = exits.exit_points - points[:, idx]
+        lengths[:, idx] = np.sqrt(np.einsum("nki,nki->nk", vectors[:, idx], vectors[:, idx]))
+        wrapped = np.zeros_like(lengths)
+        wrapped[:, idx] = radii * exits.wrap
+        return vectors, lengths, wrapped
 
     def cable_wrenches(self, forces: NDArray, arms: NDArray) -> NDArray:
         """Wrench of each cable force on the platform, shape (N, m, n).
@@ -425,7 +466,7 @@ class CableRobot:
         compiled (:func:`tension_opt.kernels.geometry.robot_geometry`) for batches from
         ``COMPILED_MIN`` poses, else by those methods: the same values to rounding."""
         p = self.as_poses(poses)
-        if compiled_for(len(p)):
+        if compiled_for(len(p)) and not self.has_pulleys:
             from tension_opt.kernels.geometry import robot_geometry  # loads numba
 
             announce("robot geometry", robot_geometry)
@@ -492,7 +533,7 @@ class CableRobot:
                 break
             idx = np.flatnonzero(active)
             geometry = self.cable_geometry(x[idx])
-            lk = geometry.lengths
+            lk = geometry.total_lengths
             J = -np.swapaxes(self.structure_from(geometry), 1, 2)  # dL/dpose, (k, m, n)
             r = lk - L[idx]
             # Normal equations of the Gauss-Newton step, with a tiny damping for safety.
@@ -502,7 +543,7 @@ class CableRobot:
             iterations[idx] += 1
             done = np.abs(step).max(axis=1) < tol
             active[idx[done]] = False
-        lk = self.cable_geometry(x).lengths
+        lk = self.cable_geometry(x).total_lengths
         residual = np.sqrt(np.mean((lk - L) ** 2, axis=1))
         met = np.where(residual > consistency_tol, Status.INCONSISTENT, Status.CONVERGED)
         status = np.where(active, Status.NOT_CONVERGED, met).astype(STATUS_DTYPE)
@@ -518,83 +559,3 @@ class CableRobot:
         if self.home is not None:
             return self.home
         return self.pattern.home(self.anchors.mean(axis=0))
-
-
-@dataclass(frozen=True)
-class CableGeometry:
-    """Straight cables of a batch of poses (:meth:`CableRobot.cable_geometry`).
-
-    Attributes
-    ----------
-    poses : ndarray, shape (N, n)
-        The validated poses.
-    position : ndarray, shape (N, 3)
-        Platform reference point in the base frame (m).
-    rotation : ndarray, shape (N, 3, 3)
-        Platform orientation.
-    arms : ndarray, shape (N, m, 3)
-        Attachment points relative to the reference point, ``R a_i`` (m).
-    vectors : ndarray, shape (N, m, 3)
-        From each attachment point to its drawing point (m).
-    lengths : ndarray, shape (N, m)
-        Straight cable lengths (m).
-    zero_length : float
-        Length (m) at or below which a cable counts as on its drawing point.
-    """
-
-    poses: NDArray
-    position: NDArray
-    rotation: NDArray
-    arms: NDArray
-    vectors: NDArray
-    lengths: NDArray
-    zero_length: float
-
-    @property
-    def unit(self) -> NDArray:
-        """Unit vectors from the attachment points toward the drawing points, (N, m, 3)."""
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return self.vectors / self.lengths[..., None]
-
-    @property
-    def attachment_points(self) -> NDArray:
-        """Attachment points in the base frame, (N, m, 3) (m)."""
-        return self.position[:, None, :] + self.arms
-
-    @property
-    def degenerate(self) -> NDArray:
-        """Poses that put some cable on its drawing point, (N,) of bool."""
-        return np.asarray((self.lengths <= self.zero_length).any(axis=1), dtype=bool)
-
-
-@dataclass(frozen=True)
-class StraightForwardKinematicsResult:
-    """Result of :meth:`CableRobot.forward_kinematics`.
-
-    Attributes
-    ----------
-    poses : ndarray, shape (N, n)
-    residual : ndarray, shape (N,)
-        RMS of the cable-length residuals at the solution (m).
-    iterations : ndarray, shape (N,)
-    status : ndarray of str, shape (N,)
-        ``"converged"``, ``"inconsistent"`` (least-squares residual above tolerance:
-        the lengths cannot all be met) or ``"not_converged"``.
-    """
-
-    poses: NDArray
-    residual: NDArray
-    iterations: NDArray
-    status: NDArray
-
-    @property
-    def success(self) -> NDArray:
-        """Boolean mask of poses whose lengths were met."""
-        return np.asarray(self.status == Status.CONVERGED, dtype=bool)
-
-    def to_frame(self) -> pd.DataFrame:
-        """Tidy table, one row per pose: status, pose coordinates, residual, iterations."""
-        frame = pd.DataFrame(self.poses, columns=[f"q{i}" for i in range(self.poses.shape[1])])
-        frame.insert(0, "pose", np.arange(len(self.poses)))
-        frame.insert(1, "status", self.status)
-        return frame.assign(residual=self.residual, iterations=self.iterations)
