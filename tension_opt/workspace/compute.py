@@ -1,8 +1,10 @@
 """The wrench-feasible workspace of a batch of poses, in chunks over an executor.
 
 A pose is *wrench-feasible* when tensions within ``[t_min, t_max]`` hold the platform's
-weight plus every external wrench of a given set (each on its own). Every pose gets its
-capacity margin under each wrench (:mod:`tension_opt.workspace.margin`); the smallest decides.
+weight plus every external wrench of a given set: a list of wrenches (each on its own)
+or a polytope (:class:`tension_opt.workspace.wrench_set.WrenchPolytope`, held through its
+vertices). Every pose gets its capacity margin under each wrench
+(:mod:`tension_opt.workspace.margin`); the smallest decides.
 A pose is reported feasible when ``margin >= -FEAS_TOL * scale``, ``scale`` being the
 pose's typical tension (:func:`tension_opt.problem.affine.typical_tension`, as in the
 closed-form backend). Feasible poses also get their minimum-sum tensions under the
@@ -15,7 +17,7 @@ chunks are the same whatever the executor, so the result is too.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -31,8 +33,10 @@ from tension_opt.robot import CableRobot
 from tension_opt.status import Status, status_array
 from tension_opt.workspace.executors import Executor, merge_chunks, run_chunks
 from tension_opt.workspace.grid import Grid, check_bounds
+from tension_opt.workspace.hyperplane import has_finite_bounds, pose_facet_margins
 from tension_opt.workspace.margin import pose_margins
 from tension_opt.workspace.result import WorkspaceResult
+from tension_opt.workspace.wrench_set import WrenchPolytope, as_wrench_polytope
 
 __all__ = [
     "CHUNK_SIZE",
@@ -116,10 +120,13 @@ class _Task:
     wrenches: NDArray
     backend: str | Backend
     options: dict[str, Any]
+    wrench_space: bool = False
 
 
 def _chunk(task: _Task) -> dict[str, Any]:
-    """Margins, feasibility and minimum-sum tensions of one chunk of poses.
+    """Margins, feasibility and minimum-sum tensions of one chunk of poses (and, with
+    ``task.wrench_space``, the hyperplane-shifting margin of
+    :mod:`tension_opt.workspace.hyperplane`).
 
     Poses on a drawing point (:func:`on_drawing_point`) are not computed: infeasible,
     margin ``-inf``, NaN tensions, status ``INFEASIBLE``; so are no poses at all.
@@ -139,6 +146,8 @@ def _chunk(task: _Task) -> dict[str, Any]:
                 out[key] = value
             else:
                 out[key][ok] = value
+    if task.wrench_space:
+        out["wrench_space_margin"] = pose_facet_margins(robot, P, W)
     return out
 
 
@@ -177,11 +186,45 @@ def _chunk_poses(task: _Task, P: NDArray) -> dict[str, Any]:
             "tensions": tensions, "status": status, "method": method}
 
 
+def wrench_set_of(robot: CableRobot, wrenches: ArrayLike | None, wrench_set: Any
+                  ) -> tuple[ArrayLike | None, WrenchPolytope | None]:
+    """The wrenches to hold and the polytope they come from (None for a list).
+
+    Raises
+    ------
+    InvalidInputError
+        If both are given, or on a bad ``wrench_set``.
+    """
+    if wrench_set is None:
+        return wrenches, None
+    if wrenches is not None:
+        raise InvalidInputError("give wrenches (a list, each held on its own) or wrench_set "
+                                "(a polytope), not both; a list's convex hull is "
+                                "wrench_set=WrenchPolytope.from_vertices(wrenches)")
+    poly = as_wrench_polytope(wrench_set, robot.dof)
+    return poly.vertices, poly
+
+
+def _wants_wrench_space(robot: CableRobot, wrench_space: bool | None,
+                        poly: WrenchPolytope | None) -> bool:
+    """Whether to compute the wrench-space margin (default: for a polytope and finite
+    ``t_max``); raises if asked for it with an infinite ``t_max``."""
+    if wrench_space is None:
+        return poly is not None and has_finite_bounds(robot)
+    if wrench_space and not has_finite_bounds(robot):
+        raise InvalidInputError("wrench_space=True needs a finite t_max for every cable; "
+                                "set one with robot.with_(t_max=...) or pass "
+                                "wrench_space=False")
+    return bool(wrench_space)
+
+
 def wrench_feasible_workspace(
     robot: CableRobot,
     poses: ArrayLike | Grid,
     wrenches: ArrayLike | None = None,
     *,
+    wrench_set: WrenchPolytope | tuple[ArrayLike, ArrayLike] | ArrayLike | None = None,
+    wrench_space: bool | None = None,
     backend: str | Backend = "auto",
     executor: str | Executor | Any | None = None,
     chunk_size: int = CHUNK_SIZE,
@@ -202,6 +245,17 @@ def wrench_feasible_workspace(
         External wrenches besides gravity (N, N m), each of which must be held on its
         own; include a zero row to also require the weight alone. Default: the weight
         alone.
+    wrench_set : WrenchPolytope, (H, h) tuple or array_like of shape (K, n), optional
+        Instead of ``wrenches``: a polytope of external wrenches (N, N m) to hold, every
+        one: a :class:`~tension_opt.workspace.wrench_set.WrenchPolytope`, ``(H, h)`` for
+        ``H w <= h``, or vertices. The capacity margin is concave in the wrench, so its
+        minimum over the polytope is at a vertex: feasibility and margin are those of
+        the vertices (``margins`` (N, K) per vertex, ``wrenches`` the vertices).
+    wrench_space : bool, optional
+        Also the wrench-space margin by hyperplane shifting
+        (:func:`~tension_opt.workspace.hyperplane.wrench_space_margin`) into
+        ``extras["wrench_space_margin"]`` (N, N m). Default: for a ``wrench_set`` when
+        every ``t_max`` is finite; True with an infinite ``t_max`` raises.
     backend : str or Backend
         ``"auto"`` (exact enumeration where the null space has dimension <= 2, the
         first installed LP solver elsewhere), ``"closed_form"`` (exact only; error
@@ -230,24 +284,42 @@ def wrench_feasible_workspace(
         A pose that puts a cable on its drawing point (zero length,
         :func:`on_drawing_point`) does not stop the batch: it is reported infeasible
         with margin ``-inf``, NaN tensions and status ``INFEASIBLE``. No poses (N = 0)
-        give an empty result.
+        give an empty result. ``extras``: ``"criterion"`` (``"wrench_feasible"``),
+        ``"wrench_set"`` (a polytope given), ``"wrench_space_margin"`` (N,).
 
     Raises
     ------
     InvalidInputError
-        On bad poses, wrenches, bounds or backend.
+        On bad poses, wrenches, wrench set, bounds or backend, or both ``wrenches`` and
+        ``wrench_set``.
     """
+    wrenches, poly = wrench_set_of(robot, wrenches, wrench_set)
     P, W, layout = prepare(robot, poses, wrenches, bounds)
+    task = _Task(robot, P, W, backend, dict(options),
+                 _wants_wrench_space(robot, wrench_space, poly))
+    return _run(layout, poly, task, executor, chunk_size, progress)
+
+
+def _run(layout: dict[str, Any], poly: WrenchPolytope | None, whole: _Task,
+         executor: str | Executor | Any | None, chunk_size: int, progress: bool
+         ) -> WorkspaceResult:
+    """:func:`wrench_feasible_workspace` of a checked task: its poses cut into chunks,
+    run through the executor, joined."""
+    robot, P, W, backend = whole.robot, whole.poses, whole.wrenches, whole.backend
     if not isinstance(backend, Backend) and backend not in ("auto", "closed_form"):
         get_backend(backend)  # fail early on an unknown name
     # No poses: one empty chunk, so that the result has the right (empty) shapes.
-    tasks = [_Task(robot, P[sl], W, backend, dict(options))
-             for sl in chunk_slices(len(P), chunk_size)] or [
-                 _Task(robot, P, W, backend, dict(options))]
+    tasks = [replace(whole, poses=P[sl]) for sl in chunk_slices(len(P), chunk_size)] or [whole]
     parts = run_chunks(_chunk, tasks, executor, progress=progress, description="workspace")
-    out = merge_chunks(parts, _FIELDS)
+    facets = whole.wrench_space
+    out = merge_chunks(parts, _FIELDS + (("wrench_space_margin",) if facets else ()))
     methods = sorted({p["method"] for p in parts if p["method"]})
+    extras: dict[str, Any] = {"criterion": "wrench_feasible"}
+    if poly is not None:
+        extras["wrench_set"] = poly
+    if facets:
+        extras["wrench_space_margin"] = out["wrench_space_margin"]
     return WorkspaceResult(
         poses=P, feasible=out["feasible"], margin=out["margin"], tensions=out["tensions"],
         status=out["status"], margins=out["margins"], critical_wrench=out["crit"],
-        wrenches=W, robot=robot, backend="+".join(methods), **layout)
+        wrenches=W, robot=robot, backend="+".join(methods), extras=extras, **layout)
