@@ -25,7 +25,12 @@ from tension_opt.problem.form import Objective, TensionProblem
 from tension_opt.robot import CableProperties, CableRobot, Pulley, caspr, presets
 from tension_opt.robot.caspr import load_caspr
 from tension_opt.status import Status
-from tension_opt.workspace import WorkspaceResult, workspace_grid, wrench_feasible_workspace
+from tension_opt.workspace import (
+    WorkspaceResult,
+    workspace_grid,
+    wrench_closure_workspace,
+    wrench_feasible_workspace,
+)
 from tension_opt.workspace.margin import capacity_margin
 
 __version__ = "0.1.0"
@@ -62,6 +67,7 @@ __all__ = [
     "presets",
     "workspace",
     "workspace_grid",
+    "wrench_closure_workspace",
     "wrench_feasible_workspace",
 ]
 

@@ -24,6 +24,15 @@ The package holds one job per module:
 - :mod:`~tension_opt.workspace.platform`: :func:`platform_clearance` (cables against
   the platform polyhedron);
 - :mod:`~tension_opt.workspace.interference_free`: :func:`interference_free_workspace`;
+- :mod:`~tension_opt.workspace.wrench_set`: :class:`WrenchPolytope` (polytopes of
+  external wrenches, by vertices or ``H w <= h``);
+- :mod:`~tension_opt.workspace.hyperplane`: :func:`wrench_space_margin`,
+  :func:`available_wrench_facets` (the wrench-space margin by hyperplane shifting);
+- :mod:`~tension_opt.workspace.criteria`: :func:`wrench_closure_workspace`,
+  :func:`static_feasible_workspace`, :data:`CRITERIA` (every criterion by name);
+- :mod:`~tension_opt.workspace.orientation`: :func:`orientation_workspace`,
+  :func:`total_orientation_workspace`;
+- :func:`combine_workspaces` (``a & b``): poses that meet several criteria;
 - :mod:`~tension_opt.workspace.plots`: :func:`plot_slice`, :func:`plot_workspace_3d`.
 
 The margin itself is :func:`tension_opt.workspace.margin.capacity_margin`, also importable from
@@ -38,6 +47,13 @@ from tension_opt.workspace.compute import (
     prepare,
     wrench_feasible_workspace,
 )
+from tension_opt.workspace.criteria import (
+    CLOSURE_TOL,
+    CRITERIA,
+    closure_ratio,
+    static_feasible_workspace,
+    wrench_closure_workspace,
+)
 from tension_opt.workspace.grid import (
     MAX_GRID_POINTS,
     Grid,
@@ -45,6 +61,7 @@ from tension_opt.workspace.grid import (
     sample_poses,
     workspace_grid,
 )
+from tension_opt.workspace.hyperplane import available_wrench_facets, wrench_space_margin
 from tension_opt.workspace.interference import (
     CableClearance,
     SegmentDistance,
@@ -56,13 +73,17 @@ from tension_opt.workspace.interference_free import (
     interference_free_workspace,
 )
 from tension_opt.workspace.margin import LP_CAP, capacity_margin, margin_lp, margin_solve
+from tension_opt.workspace.orientation import orientation_workspace, total_orientation_workspace
 from tension_opt.workspace.platform import PlatformClearance, platform_clearance
 from tension_opt.workspace.plots import plot_slice, plot_workspace_3d
-from tension_opt.workspace.result import WorkspaceResult
+from tension_opt.workspace.result import WorkspaceResult, combine_workspaces
+from tension_opt.workspace.wrench_set import WrenchPolytope
 
 __all__ = [
     "CHUNK_SIZE",
+    "CLOSURE_TOL",
     "CONSISTENCY_TOL",
+    "CRITERIA",
     "FEAS_TOL",
     "LP_CAP",
     "MAX_GRID_POINTS",
@@ -73,19 +94,28 @@ __all__ = [
     "PlatformClearance",
     "SegmentDistance",
     "WorkspaceResult",
+    "WrenchPolytope",
+    "available_wrench_facets",
     "cable_clearance",
     "capacity_margin",
     "cell_widths",
+    "closure_ratio",
+    "combine_workspaces",
     "interference_free_workspace",
     "margin_lp",
     "margin_solve",
     "on_drawing_point",
+    "orientation_workspace",
     "platform_clearance",
     "plot_slice",
     "plot_workspace_3d",
     "prepare",
     "sample_poses",
     "segment_distance",
+    "static_feasible_workspace",
+    "total_orientation_workspace",
     "workspace_grid",
+    "wrench_closure_workspace",
     "wrench_feasible_workspace",
+    "wrench_space_margin",
 ]

@@ -1,4 +1,5 @@
-"""The result of a workspace check: :class:`WorkspaceResult`."""
+"""The result of a workspace check: :class:`WorkspaceResult`, and criteria combined
+(:func:`combine_workspaces`, ``a & b``)."""
 
 from __future__ import annotations
 
@@ -12,9 +13,10 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt.errors import InvalidInputError
 from tension_opt.kinds import MotionPattern, get_kind
 from tension_opt.robot import CableRobot
+from tension_opt.status import Status
 from tension_opt.workspace.grid import cell_widths
 
-__all__ = ["WorkspaceResult"]
+__all__ = ["WorkspaceResult", "combine_workspaces"]
 
 
 @dataclass(eq=False)
@@ -54,6 +56,12 @@ class WorkspaceResult:
         The robot (anchors are drawn by the plots).
     backend : str
         How the margins were computed: ``"closed_form"``, a backend name, or both.
+    extras : dict
+        What a criterion adds: ``"criterion"`` (its name), per-pose arrays (N,) such as
+        ``"wrench_space_margin"`` (read by :meth:`quantity`, columns of
+        :meth:`to_frame`), and the criterion's own data.
+
+    ``a & b`` is :func:`combine_workspaces` of two results of the same poses.
     """
 
     poses: NDArray
@@ -77,6 +85,7 @@ class WorkspaceResult:
         "feasible": "wrench-feasible",
         "tension_sum": "sum of min-sum tensions (N)",
         "max_tension": "largest min-sum tension (N)",
+        "wrench_space_margin": "wrench-space margin (N, N m)",
     }
 
     @property
@@ -104,7 +113,9 @@ class WorkspaceResult:
         """A per-pose quantity by name, shape (N,).
 
         ``"margin"`` (N), ``"feasible"`` (0/1), ``"tension_sum"`` (N), ``"max_tension"``
-        (N), ``"T1"`` .. ``"Tm"`` (N); subclasses add their own (``"sag_correction"``).
+        (N), ``"T1"`` .. ``"Tm"`` (N), a per-pose array of :attr:`extras`
+        (``"wrench_space_margin"``, a combined result's ``"<criterion>_margin"``);
+        subclasses add their own (``"sag_correction"``).
         """
         if name == "margin":
             return self.margin
@@ -118,11 +129,11 @@ class WorkspaceResult:
             i = int(name[1:]) - 1
             if 0 <= i < self.tensions.shape[1]:
                 return self.tensions[:, i]
-        value = getattr(self, name, None)
-        if isinstance(value, np.ndarray) and value.shape == (self.N,):
-            return value.astype(float)
+        for value in (self.extras.get(name), getattr(self, name, None)):
+            if isinstance(value, np.ndarray) and value.shape == (self.N,):
+                return value.astype(float)
         raise InvalidInputError(f"unknown quantity {name!r}; choose one of "
-                                f"{[*self.QUANTITIES, 'T1']}")
+                                f"{[*self.QUANTITIES, 'T1', *self.per_pose_extras()]}")
 
     def label(self, name: str) -> str:
         """Plot label of a quantity, with its unit."""
@@ -195,8 +206,21 @@ class WorkspaceResult:
             for k in range(self.margins.shape[1]):
                 frame[f"margin_w{k}"] = self.margins[:, k]
             frame["critical_wrench"] = self.critical_wrench
+        for key, value in self.per_pose_extras().items():
+            if key not in frame:
+                frame[key] = value
         self._extra_columns(frame)
         return frame
+
+    def per_pose_extras(self) -> dict[str, NDArray]:
+        """The arrays of :attr:`extras` with one value per pose, shape (N,) each."""
+        return {k: v for k, v in self.extras.items()
+                if isinstance(v, np.ndarray) and v.shape == (self.N,)}
+
+    def __and__(self, other: object) -> WorkspaceResult:
+        if not isinstance(other, WorkspaceResult):
+            return NotImplemented
+        return combine_workspaces(self, other)
 
     def _extra_columns(self, frame: pd.DataFrame) -> None:
         """Hook for subclasses: add their own columns."""
@@ -206,3 +230,72 @@ class WorkspaceResult:
         return (f"{type(self).__name__}({name!r}, N={self.N}, feasible={self.fraction():.3f}, "
                 f"grid={self.grid_shape}, K={self.wrenches.shape[0]}, backend={self.backend!r})")
 
+
+
+def _parts(result: WorkspaceResult, index: int) -> list[tuple[str, NDArray, NDArray]]:
+    """``(criterion, feasible, margin)`` of each criterion a result holds: those it was
+    combined from, or its own (named by ``extras["criterion"]``, else by its place)."""
+    names = result.extras.get("criteria")
+    if names:
+        return [(name, result.extras[f"{name}_feasible"], result.extras[f"{name}_margin"])
+                for name in names]
+    name = str(result.extras.get("criterion") or f"criterion{index}")
+    return [(name, np.asarray(result.feasible, dtype=bool), np.asarray(result.margin))]
+
+
+def combine_workspaces(*results: WorkspaceResult) -> WorkspaceResult:
+    """Poses that meet every criterion: the AND of results of the same poses.
+
+    Parameters
+    ----------
+    *results : WorkspaceResult
+        Results of the same poses (equal ``poses`` arrays), from any criteria
+        (:func:`~tension_opt.workspace.wrench_feasible_workspace`,
+        :func:`~tension_opt.workspace.criteria.wrench_closure_workspace`, ...); a
+        combined result may be combined again.
+
+    Returns
+    -------
+    WorkspaceResult
+        ``feasible`` (N,): every criterion holds. Each criterion's own answer is kept in
+        ``extras``: ``"criteria"`` (their names, from each result's
+        ``extras["criterion"]``; a repeated name gets ``_2``, ``_3`` ...) and per pose
+        ``"<name>_feasible"``, ``"<name>_margin"`` (each in its criterion's units, for
+        :meth:`WorkspaceResult.quantity` and the plots). ``margin``, ``margins``,
+        ``tensions``, ``wrenches`` and the layout are the first result's; ``status`` is
+        the first result's, ``INFEASIBLE`` where another criterion fails.
+
+    Raises
+    ------
+    InvalidInputError
+        If no result is given, one is not a WorkspaceResult, or their poses differ.
+    """
+    if not results:
+        raise InvalidInputError("results: give at least one WorkspaceResult to combine")
+    first = results[0]
+    for i, r in enumerate(results):
+        if not isinstance(r, WorkspaceResult):
+            raise InvalidInputError(f"results[{i}] must be a WorkspaceResult, got "
+                                    f"{type(r).__name__}")
+        if r.poses.shape != first.poses.shape or not np.array_equal(r.poses, first.poses):
+            raise InvalidInputError(f"results[{i}] has other poses than results[0]: combine "
+                                    "results of the same poses (the same grid or array)")
+    extras: dict[str, Any] = {"criteria": ()}
+    feasible = np.ones(first.N, dtype=bool)
+    for i, r in enumerate(results):
+        for name, ok, margin in _parts(r, i):
+            key, k = name, 2
+            while key in extras["criteria"]:
+                key, k = f"{name}_{k}", k + 1
+            extras["criteria"] += (key,)
+            extras[f"{key}_feasible"], extras[f"{key}_margin"] = ok, margin
+            feasible &= ok
+    extras["criterion"] = "+".join(extras["criteria"])
+    status = np.array(first.status, copy=True)
+    status[~feasible & (status == Status.OPTIMAL)] = Status.INFEASIBLE
+    backends = dict.fromkeys(b for r in results for b in r.backend.split("+") if b)
+    return WorkspaceResult(
+        poses=first.poses, feasible=feasible, margin=first.margin, tensions=first.tensions,
+        status=status, margins=first.margins, critical_wrench=first.critical_wrench,
+        wrenches=first.wrenches, grid_shape=first.grid_shape, axes=first.axes,
+        bounds=first.bounds, robot=first.robot, backend="+".join(backends), extras=extras)
