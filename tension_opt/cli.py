@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from tension_opt import warmup
+from tension_opt.checks import coincident_pair
 from tension_opt.distribution.entry import distribute
 from tension_opt.errors import RobotFileError, TensionOptError
 from tension_opt.robot import CableRobot
@@ -72,6 +73,11 @@ def summary(robot: CableRobot, objective: str = "min_sum", backend: str = "auto"
                                f"{_number(cable.linear_mass)} kg/m, EA {_number(cable.EA)} N"),
         f"home pose:       {[_number(v) for v in home]}{where}".replace("'", ""),
     ]
+    if (pair := coincident_pair(robot.anchors)) is not None:
+        lines.append(f"shared anchors:  cables {pair[0]} and {pair[1]} leave one drawing point")
+    if robot.pulleys is not None:
+        count = sum(q is not None for q in robot.pulleys)
+        lines.append(f"pulleys:         {count} of {robot.m} cables over a guide pulley")
     solution = distribute(robot, home, objective, backend)
     status = str(solution.status[0])
     if status == Status.OPTIMAL:

@@ -20,8 +20,9 @@ CASPR joint            kind              pose
 
 Not imported (a :class:`~tension_opt.errors.RobotFileError` says so): several links or
 a link attached elsewhere than at the base origin, other joint types (spherical, planar
-in other planes, ...), cable models other than ``cable_ideal`` (springs), pulleys
-(``base_rotating_pulley``) and cables attached to more than the base and the platform;
+in other planes, ...), cable models other than ``cable_ideal`` (springs), routing
+elements other than one ``base_rotating_pulley`` per cable (which becomes a
+:class:`~tension_opt.Pulley`) and cables attached to more than the base and the platform;
 nor an element CASPR reads once (``<mass>``, ``<force_max>``, ...) given twice, or two
 cable sets of one id (the first was used and the others ignored).
 Gravity is CASPR's, 9.81 m/s^2 along -z, unless ``g`` is given. CASPR gives no cable
@@ -40,6 +41,7 @@ from scipy.spatial.transform import Rotation
 
 from tension_opt.errors import InvalidInputError, RobotFileError
 from tension_opt.robot import CableRobot
+from tension_opt.robot.pulleys import Pulley
 
 __all__ = ["JOINT_KINDS", "cable_sets", "load_caspr"]
 
@@ -176,14 +178,34 @@ def _chosen_set(path: str | PathLike[str], cable_set: str | None) -> tuple[str, 
     return chosen, sets[chosen]
 
 
+def _rotating_pulley(path: str | PathLike[str], item: ET.Element, where: str
+                     ) -> tuple[NDArray, Pulley]:
+    """A ``<base_rotating_pulley>``: the point where the cable enters the wheel (our
+    drawing point) and a :class:`Pulley` whose axis is against CASPR's entry vector
+    (the cable's direction of travel into the wheel)."""
+    tags = ("fixed_location", "pulley_radius", "cable_entry_vector")
+    point, radius, entry = (_numbers(path, f"{where}/{tag}", _child(
+        path, item, tag, where).text, 1 if tag == "pulley_radius" else 3) for tag in tags)
+    try:
+        return point, Pulley(float(radius[0]), -entry)
+    except InvalidInputError as error:
+        raise _fail(path, where, f"<base_rotating_pulley>: {error}") from None
+
+
 def _cable_ends(path: str | PathLike[str], cable: ET.Element, where: str
-                ) -> tuple[NDArray, NDArray]:
-    """Base point (m) and link point relative to the joint (m, before the com shift)."""
+                ) -> tuple[NDArray, NDArray, Pulley | None]:
+    """Base point (m), link point relative to the joint (m, before the com shift) and
+    the cable's guide pulley (None for a plain base attachment)."""
     ends: dict[int, NDArray] = {}
+    pulley = None
     for item in _child(path, cable, "attachments", where):
+        if item.tag == "base_rotating_pulley" and 0 not in ends:
+            ends[0], pulley = _rotating_pulley(path, item, where)
+            continue
         if item.tag != "attachment":
-            raise _fail(path, where, f"<{item.tag}> is not imported (pulleys and other "
-                        "routing elements); use a cable set of plain attachments")
+            raise _fail(path, where, f"<{item.tag}> is not imported (routing elements "
+                        "other than one base_rotating_pulley); use a cable set of plain "
+                        "attachments")
         link = (_child(path, item, "link", where).text or "").strip()
         if link not in ("0", "1") or int(link) in ends:
             raise _fail(path, where, "a cable must run from the base (link 0) to the "
@@ -192,7 +214,7 @@ def _cable_ends(path: str | PathLike[str], cable: ET.Element, where: str
                                    _child(path, item, "location", where).text, 3)
     if len(ends) != 2:
         raise _fail(path, where, "a cable needs two attachments, link 0 and link 1")
-    return ends[0], ends[1]
+    return ends[0], ends[1], pulley
 
 
 def _read_cables(path: str | PathLike[str], cable_set: str | None) -> list[dict]:
@@ -211,9 +233,9 @@ def _read_cables(path: str | PathLike[str], cable_set: str | None) -> list[dict]
         bounds = [float(_numbers(path, f"{where}/{tag}",
                                  _child(path, properties, tag, where).text, 1)[0])
                   for tag in ("force_min", "force_max")]
-        anchor, attachment = _cable_ends(path, cable, where)
+        anchor, attachment, pulley = _cable_ends(path, cable, where)
         cables.append({"anchor": anchor, "attachment": attachment, "reference": reference,
-                       "t_min": bounds[0], "t_max": bounds[1]})
+                       "t_min": bounds[0], "t_max": bounds[1], "pulley": pulley})
     if not cables:
         raise _fail(path, f"cable_set {chosen!r}", "holds no cables")
     return cables
@@ -264,7 +286,8 @@ def load_caspr(bodies_xml: str | PathLike[str], cables_xml: str | PathLike[str],
             mass=body["mass"], kind=JOINT_KINDS[body["joint"]], com=body["com"], g=g,
             t_min=np.array([c["t_min"] for c in cables]),
             t_max=np.array([c["t_max"] for c in cables]), home=body["home"],
-            name=name if name is not None else default_name, inertia=body["inertia"])
+            name=name if name is not None else default_name, inertia=body["inertia"],
+            pulleys=[c["pulley"] for c in cables])
     except InvalidInputError as error:  # the robot's own checks: name both files
         raise RobotFileError(f"CASPR model {bodies_xml} + {cables_xml}: {error}",
                              str(cables_xml), (("(robot)", 0, str(error)),)) from None

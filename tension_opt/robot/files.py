@@ -38,7 +38,7 @@ from pydantic import (
     model_validator,
 )
 
-from tension_opt.checks import coincident_pair, far_coordinate, inertia_tensor
+from tension_opt.checks import far_coordinate, inertia_tensor
 from tension_opt.errors import InvalidInputError, RobotFileError
 from tension_opt.kinds import KINDS
 from tension_opt.robot.formats import (
@@ -330,11 +330,6 @@ def _consistency(d: RobotDescription) -> list[tuple[tuple[str | int, ...], str]]
     far = [(name, far_coordinate(np.array(getattr(d, name), dtype=float)))
            for name in ("anchors", "attachments", "com")]
     found += [((name, *where[0]), where[1]) for name, where in far if where is not None]
-    pair = None if far[0][1] else coincident_pair(np.array(d.anchors, dtype=float))
-    if pair is not None:
-        i, j = pair
-        found.append((("anchors", j), f"coincides with anchors[{i}]: each cable needs its "
-                      "own drawing point"))
     return found
 
 

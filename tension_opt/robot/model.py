@@ -28,7 +28,6 @@ from tension_opt.checks import (
     as_float_array,
     check_positive,
     check_reach,
-    coincident_pair,
     inertia_tensor,
     is_number,
     label,
@@ -108,8 +107,9 @@ class CableRobot:
     Parameters
     ----------
     anchors : array_like, shape (m, 3)
-        Drawing points (cable exit points) in the base frame (m); no two at one point
-        (``checks.coincident_pair``), all within 1e6 m, as attachments and ``com`` are.
+        Drawing points (cable exit points) in the base frame (m), all within 1e6 m, as
+        attachments and ``com`` are. Cables may share one (NIST RoboCrane): the rank of
+        the structure matrix decides what the robot can hold.
     attachments : array_like, shape (m, 3)
         Attachment points in the platform frame (m). All zero for a point mass.
     mass : float
@@ -192,11 +192,6 @@ class CableRobot:
         if (t_min > t_max).any():
             i = int(np.argmax(t_min > t_max))
             raise InvalidInputError(f"t_min[{i}] = {t_min[i]} exceeds t_max[{i}] = {t_max[i]}")
-        # Two cables leaving one drawing point is almost always a typo in the data.
-        if (pair := coincident_pair(anchors)) is not None:
-            raise InvalidInputError(f"anchors {pair[0]} and {pair[1]} coincide at "
-                                    f"{anchors[pair[0]].tolist()}: each cable needs its own "
-                                    "drawing point")
         home = None if self.home is None else as_finite("home", self.home, (self.dof,))
         object.__setattr__(self, "pulleys", check_pulleys(self.pulleys, m))
         hull = None if (ph := self.platform_hull) is None else as_finite("platform_hull", ph)

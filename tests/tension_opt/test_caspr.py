@@ -149,15 +149,35 @@ def test_every_mapped_joint_gives_its_kind(joint: str, q: str, kind: str,
     ("planar_manipulators/2_DoF_VSD", None, "type 'P_XY' is not imported; supported: "
      "SPATIAL_EULER_XYZ"),
     ("spherical_manipulators/myorob_shoulder", None, "type 'S_EULER_XYZ' is not imported"),
-    ("spatial_manipulators/NIST_ROBOCRANE", None, "anchors 0 and 1 coincide"),
-    ("spatial_manipulators/CAROCA", "with_rotating_pulleys",
-     "<base_rotating_pulley> is not imported"),
     ("planar_manipulators/2_DoF_VSD", "stiff", "P_XY"),
 ])
 def test_what_is_not_imported_is_a_file_error_naming_it(folder: str, cable_set: str | None,
                                                          message: str) -> None:
     with pytest.raises(to.RobotFileError, match=message):
         load_caspr(*_files(folder), cable_set)
+
+
+@pytest.mark.parametrize(("folder", "cable_set", "m"), [
+    ("spatial_manipulators/NIST_ROBOCRANE", None, 6),
+    ("spatial_manipulators/CAROCA", "gazebo_sim", 8),
+])
+def test_models_whose_cables_share_points_import(folder: str, cable_set: str | None,
+                                                 m: int) -> None:
+    """Cables meeting at one drawing point are a valid robot: the structure matrix's
+    rank decides what it can hold."""
+    robot = load_caspr(*_files(folder), cable_set)
+    assert robot.m == m
+    shared = {tuple(a) for a in robot.anchors.tolist()}
+    assert len(shared) < m  # some cables leave one drawing point
+    A = robot.structure_matrices(robot.home)[0]
+    assert np.linalg.matrix_rank(A) == 6
+    sol = to.distribute(robot, robot.home, "min_norm", "cvxpy:CLARABEL", accuracy="high")
+    ref = to.distribute(robot, robot.home, "min_norm", "qpsolvers:clarabel", accuracy="high")
+    assert sol.status[0] == ref.status[0]
+    if sol.success[0]:
+        np.testing.assert_allclose(sol.tensions, ref.tensions, rtol=1e-6, atol=1e-6)
+        residual = A @ sol.tensions[0] - robot.required_wrench(robot.home)[0]
+        assert np.abs(residual).max() <= 1e-7 * robot.weight
 
 
 def test_multi_link_springs_and_swapped_files_are_refused(tmp_path: Path) -> None:

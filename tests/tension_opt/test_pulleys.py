@@ -220,3 +220,43 @@ def test_sag_models_refuse_pulleys_instead_of_ignoring_them():
                  lambda: catenary.platform_stiffness(towers, [[0, 0, 0]])):
         with pytest.raises(catenary.InvalidCableError, match="pulleys"):
             call()
+
+
+def caspr_leaving_point(r_F, v_F, r_B, R):
+    """CASPR's BaseRotatingPulleyAttachment.ComputePulleyLeavingLocation, re-derived:
+    the centre from the plane of the entry direction and B, the tangent point from the
+    ratio rho = R / |B - C|, the arc from the angle between F and A about C (acos, so
+    only for wraps up to pi)."""
+    n = np.cross(v_F, r_B - r_F)
+    n_unit = n / np.linalg.norm(n)
+    v_FC = np.cross(n, v_F)
+    r_C = r_F + R * v_FC / np.linalg.norm(v_FC)
+    rho = R / np.linalg.norm(r_B - r_C)
+    r_A = r_C + rho**2 * (r_B - r_C) - rho * np.sqrt(1 - rho**2) * np.cross(n_unit, r_B - r_C)
+    n1, n2 = (r_F - r_C) / R, (r_A - r_C) / np.linalg.norm(r_A - r_C)
+    return r_A, R * np.arccos(np.clip(n1 @ n2, -1, 1))
+
+
+def test_caroca_with_rotating_pulleys_matches_caspr_pulley_model():
+    """CAROCA's ``with_rotating_pulleys`` cable set imports, and its exit points and arcs
+    agree with CASPR's own formulas (an independent derivation) at random poses."""
+    from pathlib import Path
+
+    folder = Path(__file__).resolve().parents[1] / "data/caspr/SCDM/spatial_manipulators/CAROCA"
+    robot = to.load_caspr(folder / "CAROCA_bodies.xml", folder / "CAROCA_cables.xml",
+                          "with_rotating_pulleys")
+    assert robot.has_pulleys and all(q.radius == 0.045 for q in robot.pulleys)
+    rng = np.random.default_rng(11)
+    poses = robot.home + rng.uniform(-1, 1, (30, 6)) * [1.0, 1.0, 0.5, 0.2, 0.2, 0.2]
+    geometry = robot.cable_geometry(poses)
+    B = geometry.attachment_points
+    exits = geometry.vectors + B
+    checked = 0
+    for k in range(len(poses)):
+        for i, q in enumerate(robot.pulleys):
+            T, arc = caspr_leaving_point(robot.anchors[i], -q.axis, B[k, i], q.radius)
+            np.testing.assert_allclose(exits[k, i], T, atol=1e-9)
+            if geometry.wrapped[k, i] < q.radius * (np.pi - 1e-6):
+                assert geometry.wrapped[k, i] == pytest.approx(arc, abs=1e-9)
+                checked += 1
+    assert checked > 100

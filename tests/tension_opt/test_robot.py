@@ -114,8 +114,6 @@ def _robot(**changes):
          "non-finite"),
         ({"anchors": np.zeros((4, 2))}, r"shape \(m, 3\)"),
         ({"attachments": np.zeros((3, 3))}, "attachments must have shape"),
-        ({"anchors": np.array([[1.0, 1, 2], [-1, 1, 2], [1, 1, 2], [1, -1, 2]])},
-         "anchors 0 and 2 coincide"),
         ({"t_min": 5.0, "t_max": 4.0}, "t_min.*exceeds t_max"),
         ({"t_min": -1.0}, "negative"),
         ({"mass": 0.0}, "mass"),

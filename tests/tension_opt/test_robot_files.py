@@ -271,9 +271,6 @@ CASES = {
     "material only": ("linear_mass: 0.064, ", "", "cable", "cable:",
                       r"give exactly one of linear_mass .*the file gives neither "
                       r"\(material 'steel' is a label"),
-    "same anchor twice": ("- [-7.4594, -5.1504, 5.3999]", "- [-7.1775, -5.4361, 5.3911]",
-                          "anchors[1]", ("- [-7.1775, -5.4361, 5.3911]", 2),
-                          r"coincides with anchors\[0\]: each cable needs its own"),
 }
 
 
@@ -541,7 +538,9 @@ def _point_file(tmp_path: Path, anchors: list[list[float]],
 
 
 # Anchors and the pair that coincides (None: none does): within 1e-9 of the pair's own
-# largest coordinate, and within 1e-9 m near the origin.
+# largest coordinate, and within 1e-9 m near the origin. Cables may share a drawing point
+# (NIST RoboCrane): the robot and its file are valid either way, and the summary of
+# ``python -m tension_opt check`` names the pair.
 PAIRS = {
     "exact": ([[1.0, 2.0, 3.0], [0.0, 0.0, 1.0], [1.0, 2.0, 3.0]], (0, 2)),
     "floor": ([[0.0, 0.0, 0.0], [1e-10, 0.0, 0.0], [1.0, 1.0, 1.0]], (0, 1)),
@@ -558,22 +557,20 @@ PAIRS = {
 
 
 @pytest.mark.parametrize("case", sorted(PAIRS))
-def test_anchors_coincide_within_a_tolerance_of_their_own_size(case: str,
-                                                               tmp_path: Path) -> None:
+def test_shared_anchors_are_valid_and_named_within_a_tolerance_of_their_own_size(
+        case: str, tmp_path: Path) -> None:
+    from tension_opt.checks import coincident_pair
+    from tension_opt.cli import summary
+
     anchors, pair = PAIRS[case]
-    path, text = _point_file(tmp_path, anchors)
-    if pair is None:
-        assert _point_robot(anchors).m == len(anchors)
-        assert to.CableRobot.from_file(path).anchors.tolist() == anchors
-        return
-    i, j = pair
-    with pytest.raises(to.InvalidInputError, match=rf"^anchors {i} and {j} coincide"):
-        _point_robot(anchors)
-    with pytest.raises(to.RobotFileError) as caught:
-        to.CableRobot.from_file(path)
-    assert caught.value.problems == ((f"anchors[{j}]", _line_of(text, "- ", j + 1),
-                                      f"coincides with anchors[{i}]: each cable needs its own "
-                                      "drawing point"),)
+    path, _ = _point_file(tmp_path, anchors)
+    assert coincident_pair(np.array(anchors)) == pair
+    assert _point_robot(anchors).m == len(anchors)
+    robot = to.CableRobot.from_file(path)
+    assert robot.anchors.tolist() == anchors
+    named = [line for line in summary(robot).splitlines() if line.startswith("shared")]
+    assert named == ([] if pair is None else
+                     [f"shared anchors:  cables {pair[0]} and {pair[1]} leave one drawing point"])
 
 
 _BASES = [(0.0, 0.0, 0.0), (1e-3, 0.0, 0.0), (1.0, 0.0, 2.0), (1e3, -1.0, 2.0),
@@ -593,13 +590,11 @@ def test_the_named_pair_is_one_that_coincides(
     gap = np.linalg.norm(anchors[:, None] - anchors[None], axis=-1)
     close = np.triu(gap < 1e-9 * np.maximum(size[:, None], size[None]), k=1)
     pairs = {(int(i), int(j)) for i, j in np.argwhere(close)}
-    try:
-        _point_robot(anchors.tolist())
-    except to.InvalidInputError as error:
-        named = re.match(r"anchors (\d+) and (\d+) coincide", str(error))
-        assert named and (int(named[1]), int(named[2])) in pairs, (str(error), pairs)
-    else:
-        assert not pairs
+    from tension_opt.checks import coincident_pair
+
+    assert _point_robot(anchors.tolist()).m == len(anchors)  # shared anchors are valid
+    named = coincident_pair(anchors)
+    assert (named in pairs) if pairs else named is None, (named, pairs)
 
 
 @pytest.mark.parametrize(("field", "value", "path"), [
