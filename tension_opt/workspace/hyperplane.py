@@ -37,6 +37,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.errors import InvalidInputError
+from tension_opt.kernels.first_use import announce
+from tension_opt.kernels.launch import compiled_for
 from tension_opt.robot import CableRobot
 from tension_opt.workspace.wrench_set import WrenchPolytope, as_wrench_polytope
 
@@ -45,6 +47,7 @@ __all__ = [
     "available_wrench_facets",
     "facet_margin",
     "has_finite_bounds",
+    "normals_of",
     "pose_facet_margins",
     "subset_normals",
     "wrench_space_margin",
@@ -53,7 +56,7 @@ __all__ = [
 #: Columns whose normal is below this fraction of the product of their lengths are
 #: dependent (the subset spans no hyperplane).
 DEPENDENT_TOL = 1e-12
-# Entries (poses x facets x vertices) of one block of the margin's products.
+# Numbers held at once by one block of poses of the margin (a few of its arrays).
 _BLOCK_ENTRIES = 1 << 22
 
 
@@ -99,6 +102,20 @@ def subset_normals(A: NDArray, subsets: NDArray) -> tuple[NDArray, NDArray]:
     return normals, independent
 
 
+def normals_of(A: NDArray, subsets: NDArray) -> tuple[NDArray, NDArray]:
+    """:func:`subset_normals`, by its compiled twin for batches from ``COMPILED_MIN``
+    poses (:func:`tension_opt.kernels.facets.subset_normals`, a Householder QR per
+    subset: the same normals up to sign and rounding, dependent columns below ``1e-12``
+    of the largest column on the triangular factor's diagonal)."""
+    if not compiled_for(len(A)):
+        return subset_normals(A, subsets)
+    from tension_opt.kernels.facets import subset_normals as compiled  # loads numba
+
+    announce("facet normals", compiled)
+    normals = compiled(np.ascontiguousarray(A, dtype=float), np.ascontiguousarray(subsets))
+    return normals, np.abs(normals).max(axis=2, initial=0.0) > 0
+
+
 def _shifts(A: NDArray, lb: NDArray, ub: NDArray, normals: NDArray
             ) -> tuple[NDArray, NDArray]:
     """Supporting offsets ``h(+c)``, ``h(-c)`` (N, S) of normals (N, S, n) for the
@@ -132,12 +149,13 @@ def facet_margin(A: NDArray, lb: NDArray, ub: NDArray, B: NDArray) -> NDArray:
     N, n, m = A.shape
     subsets = _subsets(m, n)
     out = np.empty(N)
-    step = max(1, _BLOCK_ENTRIES // max(1, len(subsets) * B.shape[1] * n))
+    # Per pose: the subsets' columns (S n (n - 1)) and their products with B (S K).
+    step = max(1, _BLOCK_ENTRIES // (len(subsets) * (n * n + B.shape[1])))
     for start in range(0, N, step):
         sl = slice(start, min(N, start + step))
-        normals, independent = subset_normals(A[sl], subsets)
+        normals, independent = normals_of(A[sl], subsets)
         up, down = _shifts(A[sl], lb[sl], ub[sl], normals)
-        cb = np.einsum("psn,pkn->psk", normals, B[sl])
+        cb = normals @ np.swapaxes(B[sl], 1, 2)  # (poses, S, K): c . b_k
         value = np.minimum(up - cb.max(axis=2), down + cb.min(axis=2))
         out[sl] = np.where(independent, value, np.inf).min(axis=1, initial=np.inf)
     out[np.isposinf(out)] = -np.inf  # no independent subset: rank below n - 1
@@ -240,7 +258,7 @@ def available_wrench_facets(robot: CableRobot, poses: ArrayLike
     P = robot.as_poses(poses)
     lb, ub = _finite_bounds(robot, len(P))
     A = robot.structure_matrices(P)
-    normals, independent = subset_normals(A, _subsets(robot.m, robot.dof))
+    normals, independent = normals_of(A, _subsets(robot.m, robot.dof))
     up, down = _shifts(A, lb, ub, normals)
     H = np.concatenate([normals, -normals], axis=1)
     facet = np.concatenate([independent, independent], axis=1)

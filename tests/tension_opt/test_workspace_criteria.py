@@ -445,3 +445,26 @@ def test_bad_input_names_the_argument(call, words):
     with pytest.raises(to.InvalidInputError) as info:
         call(to.presets.algae_harvester())
     assert words in str(info.value)
+
+
+def test_numpy_and_compiled_facet_normals_agree(monkeypatch):
+    from tension_opt.kernels import launch
+    from tension_opt.workspace import hyperplane
+
+    rng = np.random.default_rng(21)
+    A = rng.normal(size=(50, 6, 9))
+    A[:5, :, 1] = 2.0 * A[:5, :, 0]  # dependent pairs of columns
+    subsets = np.array(list(itertools.combinations(range(9), 5)))
+    ref, ind = hyperplane.subset_normals(A, subsets)
+    got, ind_c = hyperplane.normals_of(A, subsets)  # compiled (COMPILED_MIN = 1 here)
+    np.testing.assert_array_equal(ind, ind_c)
+    assert (~ind).sum() == 5 * 35  # the subsets holding both columns 0 and 1
+    np.testing.assert_allclose(np.abs((ref * got).sum(axis=2))[ind], 1.0, atol=1e-12)
+    np.testing.assert_allclose(np.abs(ref[~ind]), 0.0)
+    robot, poses = to.presets.cogiro(), np.array([[1.0, -2.0, 2.0, 0.1, 0.0, -0.1],
+                                                 [-5.0, 3.0, 4.0, 0.0, 0.2, 0.0]])
+    box = WrenchPolytope.box([-40.0] * 6, [40.0] * 6)
+    compiled = ws.wrench_space_margin(robot, poses, box)
+    monkeypatch.setattr(launch, "COMPILED_MIN", 10**9)
+    np.testing.assert_allclose(ws.wrench_space_margin(robot, poses, box), compiled,
+                               rtol=1e-12)
