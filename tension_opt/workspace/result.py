@@ -28,11 +28,13 @@ class WorkspaceResult:
     poses : ndarray, shape (N, n)
         The poses checked (m, rad).
     feasible : ndarray of bool, shape (N,)
-        Every wrench of the set can be held with tensions within the bounds.
+        Every wrench of the set can be held with tensions within the bounds (or the
+        criterion of ``extras["criterion"]`` holds, :mod:`tension_opt.workspace.criteria`).
     margin : ndarray, shape (N,)
         Capacity margin (N): the smallest over the wrenches of the largest ``s`` with
         tensions in ``[t_min + s, t_max - s]`` in equilibrium; see
-        :mod:`tension_opt.workspace.margin`.
+        :mod:`tension_opt.workspace.margin`. Other criteria put their own margin here
+        (the closure ratio, a clearance excess in m ...).
     tensions : ndarray, shape (N, m)
         Minimum-sum tensions (N) under the critical wrench (the one that sets the
         margin); NaN where infeasible.

@@ -199,6 +199,17 @@ def test_inequalities_give_the_vertices_of_their_set():
         assert gap.max() < 1e-9 * np.abs(points).max()
         assert poly.contains(poly.vertices).all()
         assert not poly.contains(2.5 * poly.vertices).all()
+    # A workspace against such a polytope is that of its vertices as a list.
+    robot = to.presets.algae_harvester(t_max=10e3)
+    grid = ws.workspace_grid([-46.0, -31.0, 0.0], [46.0, 31.0, 7.0], spacing=[8.0, 8.0, 2.0])
+    points = rng.normal(size=(30, 3)) * 200.0
+    hull = ConvexHull(points)
+    res = to.wrench_feasible_workspace(robot, grid, wrench_set=(
+        hull.equations[:, :-1], -hull.equations[:, -1]))
+    ref = to.wrench_feasible_workspace(robot, grid, points[hull.vertices])
+    np.testing.assert_array_equal(res.feasible, ref.feasible)
+    np.testing.assert_allclose(res.margin, ref.margin, rtol=1e-9, atol=1e-9)
+    assert 0.05 < ref.fraction() < 0.9
 
 
 def brute_force_wrench_margin(A: np.ndarray, lb: np.ndarray, ub: np.ndarray,
