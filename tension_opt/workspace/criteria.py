@@ -194,7 +194,8 @@ def wrench_closure_workspace(
         margins=out["ratio"][:, None], critical_wrench=np.zeros(N, dtype=np.intp),
         wrenches=np.zeros((1, robot.dof)), robot=robot,
         backend="+".join(sorted({p["method"] for p in parts if p["method"]})),
-        extras={"criterion": "wrench_closure", "rank": out["rank"]}, **layout)
+        extras={"criterion": "wrench_closure", "rank": out["rank"],
+                "margin_label": "closure ratio (min T / max T)"}, **layout)
 
 
 def static_feasible_workspace(
@@ -242,6 +243,7 @@ def static_feasible_workspace(
                                        wrench_set=wrench_set, wrench_space=False, **options)
     result.robot = robot
     result.extras["criterion"] = "static"
+    result.extras["margin_label"] = "capacity margin without t_max (N)"
     return result
 
 

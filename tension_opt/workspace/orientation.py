@@ -220,6 +220,7 @@ def total_orientation_workspace(
     poses = np.zeros((N, robot.dof))
     poses[:, pos] = where
     extras.update({"criterion": f"total_orientation_{name}", "orientations": turns,
+                   "margin_label": f"{inner.label('margin')}, smallest over orientations",
                    "orientation_margins": margins, "critical_orientation": crit,
                    "orientation_fraction": share})
     return WorkspaceResult(

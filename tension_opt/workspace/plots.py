@@ -120,7 +120,8 @@ def plot_slice(result: WorkspaceResult, z: float | None = None, quantity: str = 
     show_anchors : bool
         Mark the drawing points (tower tops) projected on the plane.
     boundary : bool
-        Draw the workspace boundary (zero-margin contour).
+        Draw the workspace boundary (zero-margin contour, or that of ``feasible`` where
+        the margin's sign does not tell it: :meth:`WorkspaceResult.boundary_values`).
 
     Returns
     -------
@@ -139,7 +140,7 @@ def plot_slice(result: WorkspaceResult, z: float | None = None, quantity: str = 
     _draw_values(ax, xs, ys, values, quantity, result.label(quantity), cmap)
     feasible = result.reshape(result.feasible)[index]
     if boundary and np.any(feasible) and not np.all(feasible):
-        _draw_boundary(ax, xs, ys, result.reshape(result.margin)[index])
+        _draw_boundary(ax, xs, ys, result.reshape(result.boundary_values())[index])
     anchors = result.robot.anchors if show_anchors and result.robot is not None else None
     if anchors is not None:
         _draw_anchors(ax, pattern, anchors, h, v, xs, ys)
@@ -203,5 +204,6 @@ def plot_workspace_3d(result: WorkspaceResult, quantity: str = "margin", *,
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)")
-    ax.set_title(f"wrench-feasible workspace ({len(idx)} poses shown)")
+    name = str(result.extras.get("criterion", "wrench_feasible")).replace("_", "-")
+    ax.set_title(f"{name} workspace ({len(idx)} poses shown)")
     return ax

@@ -138,10 +138,27 @@ class WorkspaceResult:
                                 f"{[*self.QUANTITIES, 'T1', *self.per_pose_extras()]}")
 
     def label(self, name: str) -> str:
-        """Plot label of a quantity, with its unit."""
+        """Plot label of a quantity, with its unit (the margin's from
+        ``extras["margin_label"]`` where a criterion set one)."""
         if name.startswith("T") and name[1:].isdigit():
             return f"tension {name} (N)"
+        if name == "margin" and "margin_label" in self.extras:
+            return str(self.extras["margin_label"])
         return self.QUANTITIES.get(name, name)
+
+    def boundary_values(self) -> NDArray:
+        """Per-pose values whose zero contour is the workspace's boundary, shape (N,):
+        the margin where its sign tells ``feasible`` (negative where infeasible, at
+        least ``-1e-6`` of the largest finite margin where feasible), else
+        ``feasible - 1/2`` (a closure ratio is 0 outside, a combined result's margin is
+        one criterion's)."""
+        margin = np.asarray(self.margin, dtype=float)
+        feasible = np.asarray(self.feasible, dtype=bool)
+        finite = np.abs(margin[np.isfinite(margin)])
+        slack = 1e-6 * (float(finite.max()) if finite.size else 1.0)
+        with np.errstate(invalid="ignore"):
+            told = np.where(feasible, margin >= -slack, margin < 0) | np.isnan(margin)
+        return margin if told.all() else feasible - 0.5
 
     def volume(self) -> float:
         """Measure of the feasible positions: m^3 (m^2 for planar robots).
@@ -293,6 +310,7 @@ def combine_workspaces(*results: WorkspaceResult) -> WorkspaceResult:
             extras[f"{key}_feasible"], extras[f"{key}_margin"] = ok, margin
             feasible &= ok
     extras["criterion"] = "+".join(extras["criteria"])
+    extras["margin_label"] = first.label("margin")
     status = np.array(first.status, copy=True)
     status[~feasible & (status == Status.OPTIMAL)] = Status.INFEASIBLE
     backends = dict.fromkeys(b for r in results for b in r.backend.split("+") if b)

@@ -479,3 +479,22 @@ def test_numpy_and_compiled_facet_normals_agree(monkeypatch):
     monkeypatch.setattr(launch, "COMPILED_MIN", 10**9)
     np.testing.assert_allclose(ws.wrench_space_margin(robot, poses, box), compiled,
                                rtol=1e-12)
+
+
+def test_plots_draw_each_criterion_with_its_own_boundary_and_label():
+    planar = planar_all_around(t_max=30.0)
+    grid = ws.workspace_grid([-3.0, -3.0], [3.0, 3.0], counts=[25, 25])
+    closure = ws.wrench_closure_workspace(planar, grid)
+    # Outside, the ratio is 0, as on the boundary: the boundary follows `feasible`.
+    np.testing.assert_array_equal(closure.boundary_values(), closure.feasible - 0.5)
+    assert closure.label("margin") == "closure ratio (min T / max T)"
+    held = to.wrench_feasible_workspace(planar, grid)
+    np.testing.assert_array_equal(held.boundary_values(), held.margin)
+    assert held.label("margin") == "capacity margin (N)"
+    both = held & closure
+    assert both.label("margin") == "capacity margin (N)"
+    np.testing.assert_array_equal(both.boundary_values(), both.feasible - 0.5)
+    for result in (closure, held, both, ws.static_feasible_workspace(planar, grid)):
+        ax = ws.plot_slice(result)
+        assert ax.get_title().startswith(result.label("margin"))
+        assert len(ax.collections) >= 2  # the heat map and the boundary's contour
