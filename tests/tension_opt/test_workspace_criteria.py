@@ -313,9 +313,13 @@ def test_criteria_imply_each_other(case):
     # Bounded tensions that hold every wrench of the set are also unbounded ones.
     assert static.feasible[0] >= held.feasible[0]
     assert static.margin[0] >= held.margin[0] - 1e-9 * robot.weight
-    # Closure: tensions large enough hold any wrench.
+    # Closure: tensions large enough hold any wrench, so a wide enough box of tensions
+    # holds the whole polytope.
     if closure.feasible[0]:
         assert static.feasible[0] and static.margin[0] == np.inf
+        if closure.margin[0] > 1e-3:
+            wide = robot.with_(t_max=1e7)
+            assert to.wrench_feasible_workspace(wide, pose, wrench_set=box).feasible[0]
     # The polytope holds iff each of its vertices does, the margin the smallest.
     each = np.array([ws.capacity_margin(robot, pose, wrench=v)[0] for v in box.vertices])
     assert held.margin[0] == pytest.approx(each.min(), rel=1e-9, abs=1e-9)
