@@ -31,7 +31,7 @@ The package holds one job per module:
 - :mod:`~tension_opt.workspace.criteria`: :func:`wrench_closure_workspace`,
   :func:`static_feasible_workspace`, :data:`CRITERIA` (every criterion by name);
 - :mod:`~tension_opt.workspace.orientation`: :func:`orientation_workspace`,
-  :func:`total_orientation_workspace`;
+  :func:`total_orientation_workspace`, :func:`inclusion_orientation_workspace`;
 - :func:`combine_workspaces` (``a & b``): poses that meet several criteria;
 - :mod:`~tension_opt.workspace.plots`: :func:`plot_slice`, :func:`plot_workspace_3d`.
 
@@ -73,7 +73,11 @@ from tension_opt.workspace.interference_free import (
     interference_free_workspace,
 )
 from tension_opt.workspace.margin import LP_CAP, capacity_margin, margin_lp, margin_solve
-from tension_opt.workspace.orientation import orientation_workspace, total_orientation_workspace
+from tension_opt.workspace.orientation import (
+    inclusion_orientation_workspace,
+    orientation_workspace,
+    total_orientation_workspace,
+)
 from tension_opt.workspace.platform import PlatformClearance, platform_clearance
 from tension_opt.workspace.plots import plot_slice, plot_workspace_3d
 from tension_opt.workspace.result import WorkspaceResult, combine_workspaces
@@ -101,6 +105,7 @@ __all__ = [
     "cell_widths",
     "closure_ratio",
     "combine_workspaces",
+    "inclusion_orientation_workspace",
     "interference_free_workspace",
     "margin_lp",
     "margin_solve",

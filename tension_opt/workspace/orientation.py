@@ -3,7 +3,9 @@
 - :func:`orientation_workspace`: one position, a set of orientations; which of them meet
   a criterion (CASPR's and WireX's *orientation workspace*).
 - :func:`total_orientation_workspace`: positions at which a criterion holds at every
-  orientation of a set (the *total orientation workspace*).
+  orientation of a set (the *total orientation workspace*);
+- :func:`inclusion_orientation_workspace`: positions at which it holds at one
+  orientation of the set at least (the *inclusion orientation workspace*).
 
 A criterion is a name of :data:`tension_opt.workspace.criteria.CRITERIA`
 (``"wrench_feasible"``, ``"static"``, ``"wrench_closure"``, ``"interference_free"``) or
@@ -27,7 +29,11 @@ from tension_opt.workspace.criteria import get_criterion
 from tension_opt.workspace.grid import Grid
 from tension_opt.workspace.result import WorkspaceResult
 
-__all__ = ["orientation_workspace", "total_orientation_workspace"]
+__all__ = [
+    "inclusion_orientation_workspace",
+    "orientation_workspace",
+    "total_orientation_workspace",
+]
 
 
 def _coordinates(robot: CableRobot) -> tuple[list[int], list[int]]:
@@ -142,22 +148,58 @@ def _positions_layout(robot: CableRobot, positions: ArrayLike | Grid, pos: list[
                    "bounds": (grid.lower, grid.upper)}
 
 
-def _per_position(inner: WorkspaceResult, N: int, K: int
+def _per_position(inner: WorkspaceResult, N: int, K: int, every: bool
                   ) -> tuple[NDArray, NDArray, NDArray, NDArray, dict[str, Any]]:
-    """The inner result (N K poses, position-major) per position: every orientation
-    feasible (N,), margins (N, K), the critical orientation (N,), the fraction of
-    feasible orientations (N,), and per-pose extras: ``*_margin`` the smallest over the
-    orientations, ``*_feasible`` all of them."""
+    """The inner result (N K poses, position-major) per position: feasible (N,) at
+    every orientation (``every``) or at some, margins (N, K), the orientation that sets
+    the margin (N,): the smallest margin, or with ``every=False`` the largest, the
+    fraction of feasible orientations (N,), and per-pose extras over the orientations:
+    ``*_margin`` the smallest (largest), ``*_feasible`` all (any) of them."""
     ok = np.asarray(inner.feasible, dtype=bool).reshape(N, K)
     margins = np.asarray(inner.margin, dtype=float).reshape(N, K)
-    crit = np.argmin(np.where(np.isnan(margins), -np.inf, margins), axis=1)
+    ranked = np.where(np.isnan(margins), -np.inf, margins)
+    crit = np.argmin(ranked, axis=1) if every else np.argmax(ranked, axis=1)
     extras: dict[str, Any] = {}
     for key, value in inner.per_pose_extras().items():
         if key.endswith("_margin"):
-            extras[key] = np.asarray(value, dtype=float).reshape(N, K).min(axis=1)
+            per = np.asarray(value, dtype=float).reshape(N, K)
+            extras[key] = per.min(axis=1) if every else per.max(axis=1)
         elif key.endswith("_feasible") and value.dtype == bool:
-            extras[key] = value.reshape(N, K).all(axis=1)
-    return np.asarray(ok.all(axis=1)), margins, crit, np.asarray(ok.mean(axis=1)), extras
+            extras[key] = value.reshape(N, K).all(axis=1) if every else value.reshape(
+                N, K).any(axis=1)
+    feasible = ok.all(axis=1) if every else ok.any(axis=1)
+    return np.asarray(feasible), margins, crit, np.asarray(ok.mean(axis=1)), extras
+
+
+def _orientation_set(robot: CableRobot, positions: ArrayLike | Grid,
+                     orientations: ArrayLike | Grid,
+                     criterion: str | Callable[..., WorkspaceResult], every: bool,
+                     options: dict[str, Any]) -> WorkspaceResult:
+    """:func:`total_orientation_workspace` (``every``) or
+    :func:`inclusion_orientation_workspace`."""
+    pos, ang = _coordinates(robot)
+    name, run = get_criterion(criterion)
+    where, layout = _positions_layout(robot, positions, pos, ang)
+    turns = _rows("orientations", orientations, len(ang), "angles of the orientations, rad")
+    N, K = len(where), len(turns)
+    full = np.empty((N, K, robot.dof))
+    full[..., pos] = where[:, None, :]
+    full[..., ang] = turns[None]
+    inner = run(robot, full.reshape(N * K, robot.dof), **options)
+    feasible, margins, crit, share, extras = _per_position(inner, N, K, every)
+    pick = np.arange(N) * K + crit
+    poses = np.zeros((N, robot.dof))
+    poses[:, pos] = where
+    kind, best = ("total", "smallest") if every else ("inclusion", "largest")
+    extras.update({"criterion": f"{kind}_orientation_{name}", "orientations": turns,
+                   "margin_label": f"{inner.label('margin')}, {best} over orientations",
+                   "orientation_margins": margins, "critical_orientation": crit,
+                   "orientation_fraction": share})
+    return WorkspaceResult(
+        poses=poses, feasible=feasible, margin=margins[np.arange(N), crit],
+        tensions=inner.tensions[pick], status=inner.status[pick], margins=inner.margins[pick],
+        critical_wrench=inner.critical_wrench[pick], wrenches=inner.wrenches, robot=robot,
+        backend=inner.backend, extras=extras, **layout)
 
 
 def total_orientation_workspace(
@@ -206,25 +248,32 @@ def total_orientation_workspace(
     InvalidInputError
         As :func:`orientation_workspace`, for bad positions too.
     """
-    pos, ang = _coordinates(robot)
-    name, run = get_criterion(criterion)
-    where, layout = _positions_layout(robot, positions, pos, ang)
-    turns = _rows("orientations", orientations, len(ang), "angles of the orientations, rad")
-    N, K = len(where), len(turns)
-    full = np.empty((N, K, robot.dof))
-    full[..., pos] = where[:, None, :]
-    full[..., ang] = turns[None]
-    inner = run(robot, full.reshape(N * K, robot.dof), **options)
-    feasible, margins, crit, share, extras = _per_position(inner, N, K)
-    pick = np.arange(N) * K + crit
-    poses = np.zeros((N, robot.dof))
-    poses[:, pos] = where
-    extras.update({"criterion": f"total_orientation_{name}", "orientations": turns,
-                   "margin_label": f"{inner.label('margin')}, smallest over orientations",
-                   "orientation_margins": margins, "critical_orientation": crit,
-                   "orientation_fraction": share})
-    return WorkspaceResult(
-        poses=poses, feasible=feasible, margin=margins[np.arange(N), crit],
-        tensions=inner.tensions[pick], status=inner.status[pick], margins=inner.margins[pick],
-        critical_wrench=inner.critical_wrench[pick], wrenches=inner.wrenches, robot=robot,
-        backend=inner.backend, extras=extras, **layout)
+    return _orientation_set(robot, positions, orientations, criterion, True, options)
+
+
+def inclusion_orientation_workspace(
+    robot: CableRobot,
+    positions: ArrayLike | Grid,
+    orientations: ArrayLike | Grid,
+    criterion: str | Callable[..., WorkspaceResult] = "wrench_feasible",
+    **options: Any,
+) -> WorkspaceResult:
+    """Positions where a criterion holds at some orientation of a set.
+
+    The arguments are those of :func:`total_orientation_workspace`.
+
+    Returns
+    -------
+    WorkspaceResult
+        As :func:`total_orientation_workspace`, with ``feasible``: the criterion holds
+        at one orientation at least; ``margin``: the largest over the orientations, and
+        the tensions, status and ``extras["critical_orientation"]`` of that orientation
+        (per-pose extras: a ``*_margin`` the largest, a ``*_feasible`` any);
+        ``extras["criterion"]``: ``"inclusion_orientation_<name>"``.
+
+    Raises
+    ------
+    InvalidInputError
+        As :func:`total_orientation_workspace`.
+    """
+    return _orientation_set(robot, positions, orientations, criterion, False, options)

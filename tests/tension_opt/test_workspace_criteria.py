@@ -354,6 +354,14 @@ def test_orientation_workspaces_are_the_criterion_at_each_orientation():
     np.testing.assert_array_equal(total.extras["critical_orientation"], per.argmin(axis=0))
     np.testing.assert_allclose(total.extras["orientation_fraction"], ok.mean(axis=0))
     assert 0.1 < total.fraction() < 0.9
+    # Inclusion: some orientation passes; its margin the largest.
+    some = ws.inclusion_orientation_workspace(robot, grid, theta, "wrench_feasible",
+                                              wrenches=push)
+    np.testing.assert_array_equal(some.feasible, ok.any(axis=0))
+    np.testing.assert_array_equal(some.margin, per.max(axis=0))
+    np.testing.assert_array_equal(some.extras["critical_orientation"], per.argmax(axis=0))
+    assert some.fraction() > total.fraction()
+    assert some.extras["criterion"] == "inclusion_orientation_wrench_feasible"
     # The positions' grid: volume (m^2) is that of the feasible cells, plots draw it.
     cells = ws.cell_widths(grid.axes[0], -0.6, 0.6)[:, None] * ws.cell_widths(
         grid.axes[1], -0.6, 0.6)[None, :]
