@@ -43,6 +43,7 @@ __all__ = [
     "equilibrium_residual",
     "extreme_tensions",
     "force_slope",
+    "planes_along",
     "platform_forces",
     "refuse_pulleys",
     "taut_catenaries",
@@ -105,7 +106,16 @@ def cable_planes(robot: CableRobot, poses: NDArray) -> CablePlanes:
     """
     refuse_pulleys(robot)
     geometry = robot.cable_geometry(poses, check=False)
-    d = geometry.vectors
+    return planes_along(geometry.position, np.asarray(geometry.rotation), geometry.arms,
+                        geometry.vectors)
+
+
+def planes_along(position: FloatArray, rotation: FloatArray, arms: FloatArray,
+                 vectors: FloatArray) -> CablePlanes:
+    """The :class:`CablePlanes` of cables along ``vectors`` (N, m, 3), each from its
+    attachment point to its upper end (the drawing point, or where the cable leaves its
+    guide pulley: :mod:`catenary.pulleys`) (m)."""
+    d = vectors
     x = np.hypot(d[..., 0], d[..., 1])
     e_h = np.zeros_like(d)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -113,40 +123,44 @@ def cable_planes(robot: CableRobot, poses: NDArray) -> CablePlanes:
     # The chord from the plane's own spans, so that it is consistent with x and z to
     # the last bit (the catenary solvers see x and z).
     chord = np.sqrt(x * x + d[..., 2] ** 2)
-    return CablePlanes(geometry.position, np.asarray(geometry.rotation), geometry.arms,
-                       x, d[..., 2], e_h, chord)
+    return CablePlanes(position, rotation, arms, x, d[..., 2], e_h, chord)
 
 
-def check_robot(robot: object) -> None:
+def check_robot(robot: object, pulleys: bool = False) -> None:
     """Raise :class:`InvalidCableError` unless ``robot`` is a
-    :class:`tension_opt.CableRobot` without guide pulleys (:func:`refuse_pulleys`)."""
+    :class:`tension_opt.CableRobot`, without guide pulleys unless ``pulleys``
+    (:func:`refuse_pulleys`)."""
     if not isinstance(robot, CableRobot):
         raise InvalidCableError(
             f"robot must be a tension_opt.CableRobot (e.g. tension_opt.robot.presets."
             f"algae_harvester()); got {type(robot).__name__}")
-    refuse_pulleys(robot)
+    if not pulleys:
+        refuse_pulleys(robot)
 
 
 def refuse_pulleys(robot: CableRobot) -> None:
-    """Raise :class:`InvalidCableError` for a robot with guide pulleys: a sagging cable
-    leaves its pulley tangentially, at another point than the straight cable, and the
-    robot-level sag models here span from fixed drawing points."""
+    """Raise :class:`InvalidCableError` for a robot with guide pulleys where the caller
+    spans each sagging cable from a fixed drawing point: a sagging cable leaves its
+    pulley tangentially, at another point than the straight cable
+    (:mod:`catenary.pulleys`; :func:`catenary.inverse_kinematics` models it)."""
     if robot.has_pulleys:
         raise InvalidCableError(
-            "the sag models span each cable from a fixed drawing point; a robot with guide "
-            "pulleys is not modelled with sag: use its straight kinematics "
-            "(robot.inverse_kinematics) or robot.with_(pulleys=None)")
+            "this sag computation spans each cable from a fixed drawing point and does not "
+            "model guide pulleys; catenary.inverse_kinematics does (vertical swivel axes), "
+            "and the straight kinematics (robot.inverse_kinematics) take any pulley")
 
 
-def cable_data(robot: CableRobot) -> tuple[float, float]:
+def cable_data(robot: CableRobot, pulleys: bool = False) -> tuple[float, float]:
     """Weight per length ``w`` (N/m) and axial stiffness ``EA`` (N) of the robot's cables.
 
     Raises
     ------
     InvalidCableError
-        If the robot has no cable properties, or has guide pulleys (:func:`refuse_pulleys`).
+        If the robot has no cable properties, or has guide pulleys (:func:`refuse_pulleys`)
+        and ``pulleys`` is False (the caller does not model them).
     """
-    refuse_pulleys(robot)
+    if not pulleys:
+        refuse_pulleys(robot)
     if robot.cable is None:
         raise InvalidCableError(
             f"robot {robot.name!r} has no cable properties: build it with "

@@ -33,7 +33,7 @@ compile), with the statuses of the kernels and their values to rounding.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal, cast
 
 import numpy as np
@@ -59,6 +59,7 @@ from .geometry import (
     platform_forces,
 )
 from .margin import coupled_margin
+from .pulleys import MAX_WRAP_STEPS, WRAP_TOL, WheelFrames, settle_wraps
 from .solve import solve_length
 from .solve.common import check_settings, float_argument
 from .solve.compiled import new_result
@@ -86,7 +87,8 @@ class InverseKinematicsResult:
     lengths : ndarray, shape (N, m)
         Unstretched cable lengths (m); NaN where a pose failed.
     straight_lengths : ndarray, shape (N, m)
-        Distance from attachment point to drawing point (m).
+        Distance from attachment point to drawing point (m); over a guide pulley, the
+        straight cable's arc plus free span (:meth:`tension_opt.CableRobot.inverse_kinematics`).
     tensions : ndarray, shape (N, m)
         Tension magnitude at the drawing point, end B (N).
     tensions_platform : ndarray, shape (N, m)
@@ -183,7 +185,8 @@ def inverse_kinematics(
     Parameters
     ----------
     robot : CableRobot
-        Needs ``robot.cable`` (weight per length ``linear_mass * g`` and ``EA``).
+        Needs ``robot.cable`` (``linear_mass * g`` and ``EA``); over guide pulleys (vertical
+        axes) a cable leaves its wheel tangentially (:mod:`catenary.pulleys`).
     poses : array_like, shape (N, n) or (n,)
         Platform poses (m, rad); see :mod:`tension_opt.robot`.
     model : {"thesis", "coupled"}
@@ -200,8 +203,7 @@ def inverse_kinematics(
     wrench : array_like, shape (n,) or (N, n), optional
         External wrench on the platform besides gravity (N, N m).
     tol : float
-        Coupled model: stop when the tensions change less than ``tol`` relative to
-        the largest tension of the pose.
+        Coupled model: stop when the tensions change less than ``tol`` of the largest.
     max_iter : int
         Coupled model: iteration limit of the sequential convex programming.
     initial_tensions : array_like, shape (N, m), optional
@@ -209,8 +211,8 @@ def inverse_kinematics(
         even where the straight-line distribution is infeasible (without it, those poses
         start from the coupled capacity-margin search: sag can make them feasible).
     compiled : bool, optional
-        Thesis model: compiled kernels where they apply (Notes); False: numpy throughout;
-        None (default): as True from ``COMPILED_MIN`` cables on (module notes).
+        Thesis model: compiled kernels where they apply (module notes); False: numpy
+        throughout; None (default): from ``COMPILED_MIN`` cables on.
     **options
         Passed to the backend.
 
@@ -234,10 +236,10 @@ def inverse_kinematics(
     t0 = time.perf_counter()
     if model not in ("thesis", "coupled"):
         raise InvalidCableError(f'model must be "thesis" or "coupled"; got model={model!r}')
-    check_robot(robot)
+    check_robot(robot, pulleys=True)
     check_settings(tol, max_iter, "tol")
     compiled = _cables(poses, robot.m) >= launch.COMPILED_MIN if compiled is None else compiled
-    if compiled and model == "thesis" and _one_pose(poses):
+    if compiled and model == "thesis" and _one_pose(poses) and not robot.has_pulleys:
         result = thesis_result(thesis_solver(robot, objective, backend, options), poses,
                                wrench, t0)
         if result is not None:
@@ -273,10 +275,13 @@ def _batch(robot: CableRobot, poses: ArrayLike, model: str, objective: Any,
     """:func:`inverse_kinematics` by the numpy path (``settings``: its ``tol``,
     ``max_iter`` and ``compiled``; ``start``: the :func:`time.perf_counter` reading the
     solve time counts from)."""
-    w, EA = cable_data(robot)
+    w, EA = cable_data(robot, pulleys=True)
     p = robot.as_poses(poses)
-    planes = cable_planes(robot, p)
     straight = tension_opt.distribute(robot, p, objective, backend, wrench=wrench, **options)
+    if robot.has_pulleys:
+        return _over_pulleys(robot, p, model, straight, (objective, backend, wrench),
+                             initial_tensions, settings, options, start)
+    planes = cable_planes(robot, p)
     # Weightless cables are straight: the straight-line distribution is then also the
     # coupled solution, and the thesis convention computes its catenaries.
     if model == "coupled" and w > 0.0:
@@ -288,12 +293,87 @@ def _batch(robot: CableRobot, poses: ArrayLike, model: str, objective: Any,
                            settings["compiled"])
     result = _result(robot, p, wrench, planes, solution, model, time.perf_counter() - start)
     if model == "coupled":
-        lb, ub = as_problem(objective).bounds(robot, len(p))
-        b = robot.required_wrench(p, wrench)
-        missed = (result.status == Status.CONVERGED) & ~coupled_certificate(result, b, lb,
-                                                                             ub, w)
-        result.status[missed] = Status.INACCURATE
+        _certify(result, robot, p, objective, wrench, w)
     return result
+
+
+def _certify(result: InverseKinematicsResult, robot: CableRobot, p: FloatArray,
+             objective: Any, wrench: ArrayLike | None, w: float) -> None:
+    """Mark ``INACCURATE`` the converged poses of a coupled result whose
+    :func:`coupled_certificate` fails (in place)."""
+    lb, ub = as_problem(objective).bounds(robot, len(p))
+    b = robot.required_wrench(p, wrench)
+    missed = (result.status == Status.CONVERGED) & ~coupled_certificate(result, b, lb, ub, w)
+    result.status[missed] = Status.INACCURATE
+
+
+def _over_pulleys(robot: CableRobot, p: FloatArray, model: str, straight: TensionSolution,
+                  call: tuple[Any, str | Backend, ArrayLike | None],
+                  initial_tensions: ArrayLike | None, settings: dict[str, Any],
+                  options: dict[str, Any], start: float) -> InverseKinematicsResult:
+    """:func:`inverse_kinematics` of a robot with guide pulleys (:mod:`catenary.pulleys`):
+    each sagging cable leaves its wheel tangentially. Thesis model: the wrap angles
+    settled under the straight-line tensions. Coupled model: the coupled solve and the
+    wrap angles in turn, until the wraps move less than ``WRAP_TOL`` (``call``: the
+    objective, backend and wrench). The coupled model starts the poses whose
+    straight-line distribution failed from the coupled answer of the robot with fixed
+    drawing points (:func:`_fixed_point_start`), unless ``initial_tensions`` are given."""
+    objective, backend, wrench = call
+    w, EA = cable_data(robot, pulleys=True)
+    attempt = np.asarray(straight.status == Status.OPTIMAL, dtype=bool)
+    if model == "thesis" or w == 0.0:
+        sag = settle_wraps(robot, p, straight.tensions, attempt, w, EA, settings["compiled"])
+        solution = _thesis(sag.planes, straight.tensions, straight.status, w, EA,
+                           settings["compiled"])
+        solution.status[attempt & ~sag.settled.all(axis=1)] = Status.CATENARY_FAILED
+    else:
+        frames = WheelFrames(robot, p)
+        wrap = frames.straight_wrap
+        start_tensions = initial_tensions
+        if initial_tensions is None and not attempt.all():
+            start_tensions = _fixed_point_start(robot, p, straight, call, settings, options)
+        for _ in range(MAX_WRAP_STEPS):
+            planes = frames.planes(wrap)
+            solution = _coupled(robot, p, planes, straight, objective, backend, wrench,
+                                start_tensions, (w, EA), settings["tol"],
+                                settings["max_iter"], options)
+            new = frames.tangent_wraps(planes, solution.H[:, frames.idx],
+                                       solution.V_B[:, frames.idx])
+            moved = np.abs(new - wrap)
+            wrap = np.where(np.isfinite(new), new, wrap)
+            start_tensions = solution.tensions
+            if not (moved > WRAP_TOL).any():
+                break
+        settled = ~(moved > WRAP_TOL)
+        solution.status[(solution.status == Status.CONVERGED) & ~settled.all(axis=1)] = (
+            Status.MAX_ITER)
+        sag = frames.sag(wrap, np.zeros(wrap.shape, np.int64), settled)
+    result = _result(robot, p, wrench, sag.planes, solution, model,
+                     time.perf_counter() - start)
+    if model == "coupled":
+        _certify(result, robot, p, objective, wrench, w)
+    return replace(result, lengths=result.lengths + sag.arcs(result.tensions, EA),
+                   straight_lengths=robot.inverse_kinematics(p)[0])
+
+
+def _fixed_point_start(robot: CableRobot, p: FloatArray, straight: TensionSolution,
+                       call: tuple[Any, str | Backend, ArrayLike | None],
+                       settings: dict[str, Any], options: dict[str, Any]) -> FloatArray:
+    """Platform-end tensions (N, m) to start the coupled model over pulleys from: the
+    straight-line ones where they fit the bounds, elsewhere those of the coupled model
+    of the robot with fixed drawing points (its margin search: sag can widen the
+    workspace), NaN where that fails too. The wheels move the exit points by at most
+    their diameters, so that start is close."""
+    objective, backend, wrench = call
+    start = np.where(straight.success[:, None], straight.tensions, np.nan)
+    idx = np.flatnonzero(~straight.success)
+    w = None if wrench is None else np.asarray(wrench, dtype=float)
+    fixed = _batch(robot.with_(pulleys=None), p[idx], "coupled", objective, backend,
+                   None if w is None else (w[idx] if w.ndim == 2 else w), None, settings,
+                   options, time.perf_counter())
+    found = fixed.status == Status.CONVERGED
+    start[idx[found]] = fixed.tensions_platform[found]
+    return start
 
 
 def coupled_certificate(result: InverseKinematicsResult, b: FloatArray, lb: FloatArray,

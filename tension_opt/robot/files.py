@@ -21,7 +21,7 @@ checked against :data:`MATERIAL_NAMES` (the catalogue's names) so that a typo is
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from os import PathLike
 from typing import Annotated, Any, Literal, Protocol, TypeVar
@@ -465,7 +465,7 @@ class _DescribedRobot(Protocol):
     def platform_hull(self) -> NDArray | None: ...
 
     @property
-    def pulleys(self) -> tuple[Pulley | None, ...] | None: ...
+    def pulleys(self) -> Sequence[Pulley | None] | None: ...
 
 
 def _per_cable(values: NDArray | float) -> float | list[float]:

@@ -16,6 +16,7 @@ about the platform reference point ``p``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from os import PathLike
 from typing import Literal
@@ -156,7 +157,7 @@ class CableRobot:
     name: str = "cable robot"
     inertia: NDArray | None = None
     platform_hull: NDArray | None = None
-    pulleys: tuple[Pulley | None, ...] | None = None
+    pulleys: Sequence[Pulley | None] | None = None
     pattern: MotionPattern = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:

@@ -213,11 +213,12 @@ def test_bad_pulleys_are_refused_with_the_fix(tmp_path):
         to.CableRobot.from_file(text)
 
 
-def test_sag_models_refuse_pulleys_instead_of_ignoring_them():
+def test_sag_models_without_pulleys_refuse_them_instead_of_ignoring_them():
     towers = to.presets.algae_harvester().with_(pulleys=[to.Pulley(0.3)] * 4)
-    for call in (lambda: catenary.inverse_kinematics(towers, [[0, 0, 0]], model="thesis"),
-                 lambda: catenary.inverse_kinematics(towers, [[0, 0, 0]], model="coupled"),
-                 lambda: catenary.platform_stiffness(towers, [[0, 0, 0]])):
+    lengths = catenary.inverse_kinematics(towers, [[0, 0, 0]]).lengths
+    for call in (lambda: catenary.forward_kinematics(towers, lengths),
+                 lambda: catenary.platform_stiffness(towers, [[0, 0, 0]]),
+                 lambda: catenary.cable_clearance(towers, [[0, 0, 0]], model="coupled")):
         with pytest.raises(catenary.InvalidCableError, match="pulleys"):
             call()
 

@@ -1,0 +1,117 @@
+"""Sagging cables over guide pulleys: each catenary leaves its wheel tangentially.
+
+Checked against the catenary's own sampled shape (the slope at the exit point, by a
+second-order difference), the limit of a vanishing wheel (the fixed drawing point), and,
+in the coupled model, the platform's equilibrium.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import catenary
+import tension_opt as to
+from catenary.elastic import profile
+from catenary.pulleys import settle_wraps
+
+POSES = np.array([[0.0, 0.0, 0.0], [-29.4, 10.2, 1.5], [35.0, 22.0, 5.0], [10.0, -20.0, 3.0]])
+
+
+def towers(radius: float = 0.3, sign: float = -1.0, **overrides: float) -> to.CableRobot:
+    robot = to.presets.algae_harvester(**overrides)
+    return robot.with_(pulleys=[to.Pulley(radius, [0, 0, sign])] * robot.m)
+
+
+def tangency_gap(robot: to.CableRobot, tensions: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Settle the wraps under exit tensions (N, m); then, independently of the
+    tangency formula, the catenary's slope at its upper end from its sampled shape (a
+    second-order one-sided difference) and the wheel's tangent at the settled wrap
+    angle, both as angles from the horizontal (rad), and the cables' lengths (m)."""
+    w, EA = robot.cable.weight_per_length(robot.g), robot.cable.EA
+    sag = settle_wraps(robot, POSES, tensions, np.ones(len(POSES), bool), w, EA)
+    assert sag.settled.all() and (sag.steps[:, 0] <= 10).all()
+    c = catenary.solve_length(sag.planes.x, sag.planes.z, tensions, w, EA, "B")
+    _, x, z = profile(c.H, c.V_B, c.L0, w, EA, n=200_001)
+    dx = 3 * x[..., -1] - 4 * x[..., -2] + x[..., -3]
+    dz = 3 * z[..., -1] - 4 * z[..., -2] + z[..., -3]
+    sampled = np.arctan2(dz, dx)  # how steeply the cable rises into its exit point
+    # The wheel's travel direction -cos(b) axis + sin(b) h (axis = -e_z) descends from
+    # the exit point at atan2(-cos b, sin b) below the horizontal: the same angle.
+    wheel = np.arctan2(-np.cos(sag.wrap), np.sin(sag.wrap))
+    return sampled, wheel, c.L0 + sag.arcs(tensions, EA)
+
+
+@pytest.mark.parametrize("model", ["thesis", "coupled"])
+def test_each_catenary_leaves_its_wheel_tangentially(model):
+    robot = towers()
+    res = catenary.inverse_kinematics(robot, POSES, model=model)
+    assert (res.status == "converged").all()
+    sampled, wheel, lengths = tangency_gap(robot, res.tensions)
+    np.testing.assert_allclose(sampled, wheel, atol=1e-7)
+    # The thesis settling under the coupled answer's exit tensions is the coupled state.
+    np.testing.assert_allclose(lengths, res.lengths, atol=1e-9)
+
+
+def test_a_vanishing_wheel_gives_the_fixed_drawing_point():
+    plain = to.presets.algae_harvester()
+    for model in ("thesis", "coupled"):
+        fixed = catenary.inverse_kinematics(plain, POSES, model=model)
+        tiny = catenary.inverse_kinematics(towers(1e-9), POSES, model=model)
+        np.testing.assert_allclose(tiny.lengths, fixed.lengths, atol=1e-7)
+        np.testing.assert_allclose(tiny.tensions, fixed.tensions, rtol=1e-7)
+
+
+def test_coupled_model_balances_the_load_over_pulleys():
+    robot = towers(0.3)
+    res = catenary.inverse_kinematics(robot, POSES, model="coupled")
+    assert (res.status == "converged").all()
+    assert res.equilibrium_residual.max() <= 1e-9 * robot.weight
+    bounds_ok = res.tensions_platform >= robot.t_min * (1 - 1e-9)
+    assert bounds_ok.all()
+
+
+def test_sag_over_pulleys_exceeds_the_straight_pulley_length():
+    robot = towers(0.3)
+    res = catenary.inverse_kinematics(robot, POSES, model="thesis")
+    straight, _ = robot.inverse_kinematics(POSES)
+    np.testing.assert_array_equal(res.straight_lengths, straight)
+    assert (res.lengths > straight).all()  # an inextensible sagging cable is longer
+
+
+def test_elastic_cables_stretch_over_the_wheel_too():
+    robot = to.presets.algae_harvester()
+    cable = to.CableProperties(robot.cable.diameter, robot.cable.linear_mass, 2.0e6)
+    stiff, soft = towers(0.3), towers(0.3).with_(cable=cable)
+    a = catenary.inverse_kinematics(stiff, POSES, model="thesis")
+    b = catenary.inverse_kinematics(soft, POSES, model="thesis")
+    # The elastic cable is shorter unstretched, by at least the arc's stretch T r beta / EA.
+    assert (b.lengths < a.lengths).all()
+
+
+def test_tilted_pulley_axes_are_refused_with_sag_only():
+    robot = to.presets.algae_harvester().with_(
+        pulleys=[to.Pulley(0.3, [0.2, 0, -1])] + [None] * 3)
+    robot.inverse_kinematics(POSES)  # straight: any axis
+    with pytest.raises(catenary.InvalidCableError, match="not vertical"):
+        catenary.inverse_kinematics(robot, POSES, model="thesis")
+
+
+@settings(max_examples=15, deadline=None)
+@given(radius=st.floats(0.01, 1.0), height=st.floats(5.0, 15.0),
+       x=st.floats(-35.0, 35.0), y=st.floats(-20.0, 20.0), z=st.floats(0.0, 4.0),
+       winch_above=st.booleans())
+def test_random_wheels_and_poses_balance_and_leave_tangentially(radius, height, x, y, z,
+                                                                 winch_above):
+    robot = towers(radius, 1.0 if winch_above else -1.0, tower_height=height)
+    pose = np.array([[x, y, z]])
+    res = catenary.inverse_kinematics(robot, pose, model="coupled")
+    if res.status[0] != "converged":
+        return  # outside the sag-aware workspace: nothing to check
+    assert res.equilibrium_residual[0] <= 1e-9 * robot.weight
+    thesis = catenary.inverse_kinematics(robot, pose, model="thesis")
+    straight, _ = robot.inverse_kinematics(pose)
+    if thesis.status[0] == "converged":
+        assert (thesis.lengths >= straight - 1e-9).all()  # inextensible: sag lengthens
