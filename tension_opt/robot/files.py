@@ -502,7 +502,7 @@ def robot_document(robot: _DescribedRobot) -> dict[str, Any]:
         document["platform_hull"] = np.asarray(robot.platform_hull, dtype=float).tolist()
     if robot.pulleys is not None:
         document["pulleys"] = [None if q is None else {"radius": float(q.radius),
-                                                       "axis": q.axis.tolist()}
+                                                       "axis": np.asarray(q.axis).tolist()}
                                for q in robot.pulleys]
     return document
 

@@ -375,18 +375,27 @@ class CableRobot:
         """Free-span vectors and lengths (N, m, 3), (N, m) of cables over their
         pulleys, and the wrapped lengths (N, m) (zero without a pulley, NaN where a
         pulley has no exit point)."""
-        assert self.pulleys is not None
-        idx = [i for i, q in enumerate(self.pulleys) if q is not None]
-        chosen = [q for q in self.pulleys if q is not None]
-        radii = np.array([q.radius for q in chosen])
-        exits = pulley_exits(self.anchors[idx], np.array([q.axis for q in chosen]), radii,
-                             points[:, idx])
-        vectors, lengths = vectors.copy(), lengths.copy()
-        vectors[:, idx] = exits.exit_points - points[:, idx]
-        lengths[:, idx] = np.sqrt(np.einsum("nki,nki->nk", vectors[:, idx], vectors[:, idx]))
+        idx, anchors, axes, radii = self._pulley_arrays
+        every = len(idx) == self.m  # then whole arrays, no gathers and scatters
+        at = slice(None) if every else idx
+        exits = pulley_exits(anchors, axes, radii, points if every else points[:, idx],
+                             swivel=False)
+        if not every:
+            vectors, lengths = vectors.copy(), lengths.copy()
+        vectors[:, at] = exits.exit_points - (points if every else points[:, idx])
+        lengths[:, at] = exits.spans
         wrapped = np.zeros_like(lengths)
-        wrapped[:, idx] = radii * exits.wrap
+        wrapped[:, at] = radii * exits.wrap
         return vectors, lengths, wrapped
+
+    @property
+    def _pulley_arrays(self) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """Cables with a pulley (k,), their drawing points and axes (k, 3), radii (k,)."""
+        assert self.pulleys is not None
+        idx = np.array([i for i, q in enumerate(self.pulleys) if q is not None])
+        chosen = [q for q in self.pulleys if q is not None]
+        return (idx, self.anchors[idx], np.array([q.axis for q in chosen]),
+                np.array([q.radius for q in chosen]))
 
     def cable_wrenches(self, forces: NDArray, arms: NDArray) -> NDArray:
         """Wrench of each cable force on the platform, shape (N, m, n).

@@ -50,7 +50,7 @@ class Pulley:
     """
 
     radius: float
-    axis: NDArray = field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
+    axis: ArrayLike = field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
 
     def __post_init__(self) -> None:
         if not is_number(self.radius):
@@ -72,7 +72,7 @@ class Pulley:
                 and bool(np.array_equal(self.axis, other.axis)))
 
     def __hash__(self) -> int:
-        return hash((self.radius, tuple(self.axis.tolist())))
+        return hash((self.radius, tuple(np.asarray(self.axis).tolist())))
 
 
 def check_pulleys(pulleys: object, m: int) -> tuple[Pulley | None, ...] | None:
@@ -120,20 +120,24 @@ class PulleyExits:
         Tangent points ``T`` (m), base frame.
     wrap : ndarray, shape (N, k)
         Wrap angles ``beta`` (rad), in [0, 2 pi).
-    swivel : ndarray, shape (N, k)
-        Swivel angles (rad), from :func:`swivel_basis`'s ``e1`` towards ``e2``.
+    spans : ndarray, shape (N, k)
+        Free spans ``|B - T|`` (m).
+    swivel : ndarray, shape (N, k) or None
+        Swivel angles (rad), from :func:`swivel_basis`'s ``e1`` towards ``e2``; None
+        when not asked for.
     degenerate : ndarray, shape (N, k)
         ``B`` on the swivel axis or on or inside the wheel: no exit point (NaN there).
     """
 
     exit_points: NDArray
     wrap: NDArray
-    swivel: NDArray
+    spans: NDArray
+    swivel: NDArray | None
     degenerate: NDArray
 
 
 def pulley_exits(anchors: ArrayLike, axes: ArrayLike, radii: ArrayLike,
-                 points: ArrayLike) -> PulleyExits:
+                 points: ArrayLike, *, swivel: bool = True) -> PulleyExits:
     """Exit points and wrap angles of ``k`` swivel pulleys, vectorised over poses.
 
     Parameters
@@ -146,6 +150,8 @@ def pulley_exits(anchors: ArrayLike, axes: ArrayLike, radii: ArrayLike,
         Wheel radii (m), > 0.
     points : array_like, shape (N, k, 3)
         Attachment points ``B`` in the base frame (m).
+    swivel : bool
+        Also the swivel angles (two more products and an arctangent per cable).
 
     Returns
     -------
@@ -153,21 +159,27 @@ def pulley_exits(anchors: ArrayLike, axes: ArrayLike, radii: ArrayLike,
     """
     A, a = np.asarray(anchors, dtype=float), np.asarray(axes, dtype=float)
     r = np.asarray(radii, dtype=float)
-    d = np.asarray(points, dtype=float) - A
-    x = np.einsum("nki,ki->nk", d, a)
-    perp = d - x[..., None] * a
+    perp = np.asarray(points, dtype=float) - A
+    x = np.einsum("nki,ki->nk", perp, a)
+    perp -= x[..., None] * a  # d - (d . a) a: from the axis towards B
     v = np.sqrt(np.einsum("nki,nki->nk", perp, perp))
     scale = np.maximum(1.0, np.abs(A).max(initial=0.0))
     y = v - r
     span2 = x * x + y * y - r * r
     degenerate = (v <= 1e-12 * scale) | (span2 <= (1e-12 * scale) ** 2)
     with np.errstate(invalid="ignore", divide="ignore"):
-        h = perp / v[..., None]
         span = np.sqrt(span2)
         wrap = np.mod(np.pi + np.arctan2(r, span) - np.arctan2(y, x), 2 * np.pi)
-        exits = A - (r * np.sin(wrap))[..., None] * a + (r * (1 - np.cos(wrap)))[..., None] * h
-        e1, e2 = swivel_basis(a)
-        swivel = np.arctan2(np.einsum("nki,ki->nk", h, e2), np.einsum("nki,ki->nk", h, e1))
-    for arr in (exits, wrap, swivel):
-        arr[degenerate] = np.nan
-    return PulleyExits(exits, wrap, swivel, degenerate)
+        # T = A - r sin(beta) axis + r (1 - cos(beta)) h, with h = perp / v
+        exits = A - (r * np.sin(wrap))[..., None] * a
+        exits += (r * (1.0 - np.cos(wrap)) / v)[..., None] * perp
+        angle = None
+        if swivel:
+            e1, e2 = swivel_basis(a)
+            angle = np.arctan2(np.einsum("nki,ki->nk", perp, e2),
+                               np.einsum("nki,ki->nk", perp, e1))
+    if degenerate.any():
+        for arr in (exits, wrap, span, angle):
+            if arr is not None:
+                arr[degenerate] = np.nan
+    return PulleyExits(exits, wrap, span, angle, degenerate)
