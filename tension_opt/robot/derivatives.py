@@ -96,7 +96,19 @@ class CableFrames:
 
 
 def cable_frames(robot: CableRobot, poses: ArrayLike) -> CableFrames:
-    """:class:`CableFrames` of ``poses`` (N, n) from the robot's own geometry."""
+    """:class:`CableFrames` of ``poses`` (N, n) from the robot's own geometry.
+
+    Raises
+    ------
+    InvalidInputError
+        For a robot with guide pulleys: its exit points move with the attachment
+        points, which these derivatives (of cables from fixed points) do not hold.
+    """
+    if robot.has_pulleys:
+        raise InvalidInputError(
+            "derivatives by the pose or the points are those of cables from fixed drawing "
+            "points; a robot with guide pulleys has none yet (derivatives by the wrench "
+            "and the bounds take any robot)")
     geometry = robot.cable_geometry(poses)
     u = geometry.unit
     eye = np.eye(3)

@@ -261,3 +261,20 @@ def test_caroca_with_rotating_pulleys_matches_caspr_pulley_model():
                 assert geometry.wrapped[k, i] == pytest.approx(arc, abs=1e-9)
                 checked += 1
     assert checked > 100
+
+
+def test_pose_derivatives_refuse_pulleys_and_wrench_derivatives_take_them():
+    robot = to.presets.algae_harvester().with_(pulleys=[to.Pulley(0.3, [0, 0, -1])] * 4)
+    poses = np.array([[-29.4, 10.2, 1.5], [35.0, 22.0, 5.0]])
+    sol = to.distribute(robot, poses, "min_norm", "closed_form")
+    with pytest.raises(InvalidInputError, match="guide pulleys"):
+        sol.jacobian("pose", robot=robot, poses=poses)
+    jac = sol.jacobian("wrench")
+    # d T / d w_ext against a central difference of the solver itself
+    h = 1e-3
+    e = np.array([1.0, 0.0, 0.0])
+    plus = to.distribute(robot, poses, "min_norm", "closed_form", wrench=h * e).tensions
+    minus = to.distribute(robot, poses, "min_norm", "closed_form", wrench=-h * e).tensions
+    assert (jac.status == "ok").all()
+    np.testing.assert_allclose(jac.jacobian[:, :, 0], (plus - minus) / (2 * h), rtol=1e-6,
+                               atol=1e-9)
