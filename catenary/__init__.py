@@ -13,7 +13,10 @@ A :class:`tension_opt.CableRobot` whose cables sag (built on ``tension_opt``):
 - ``catenary.geometry``: the cables in their vertical planes, the platform forces and
   their wrench, the extreme tensions along a cable;
 - ``catenary.inverse``: sag-aware inverse kinematics (:func:`inverse_kinematics`, the
-  thesis convention and the coupled model);
+  thesis convention and the coupled model), over guide pulleys with
+  ``catenary.pulleys``;
+- ``catenary.sensitivity``: derivatives of the thesis convention's lengths by the pose,
+  the tensions, the cable weight and ``EA`` (:func:`length_jacobian`);
 - ``catenary.coupled``: the coupled model's sequential convex programming;
 - ``catenary.forward``: sag-aware forward kinematics (:func:`forward_kinematics`);
 - ``catenary.margin``: the coupled capacity margin (:func:`coupled_margin`);
@@ -79,6 +82,7 @@ from .response import (
     vibration_modes,
 )
 from .robot_stiffness import StiffnessResult, platform_stiffness, stiffness_analysis
+from .sensitivity import LengthSensitivity, length_jacobian
 from .solve import ForcesResult, LengthResult, solve_forces, solve_length
 from .stiffness_loop import PoseStiffness
 from .stiffness_maps import StiffnessMap, plot_stiffness_map, stiffness_map
@@ -108,6 +112,7 @@ __all__ = [
     "InvalidCableError",
     "InverseKinematicsResult",
     "LengthResult",
+    "LengthSensitivity",
     "PoseStiffness",
     "RobotScene",
     "SagTimingResult",
@@ -131,6 +136,7 @@ __all__ = [
     "interference_free_workspace",
     "inverse_kinematics",
     "length_derivative",
+    "length_jacobian",
     "mass_matrix",
     "material_names",
     "natural_frequencies",

@@ -39,6 +39,7 @@ __all__ = [
     "left_jacobian",
     "pose_derivatives",
     "skew",
+    "vector_derivatives",
 ]
 
 
@@ -148,6 +149,35 @@ def _full_columns(frames: CableFrames, du: NDArray, dr: NDArray) -> NDArray:
     return full[..., frames.rows, :]
 
 
+def _vector_steps(robot: CableRobot, p: NDArray, arms: NDArray, W: NDArray | None
+                  ) -> tuple[NDArray, NDArray]:
+    """``dv/dp`` of the cable vectors and ``dr/dp`` of the arms, (N, m, 3, n) each."""
+    N, n = p.shape
+    translation = robot.pattern.step_maps()[0]  # (3, n)
+    dv = np.broadcast_to(-translation, (N, robot.m, 3, n)).copy()
+    if W is None:
+        return dv, np.zeros_like(dv)
+    # dr = omega x r = -[r]x W dp, and dv = -dp_t - dr.
+    dr = -(skew(arms) @ W[:, None])
+    return dv - dr, dr
+
+
+def vector_derivatives(robot: CableRobot, poses: ArrayLike) -> NDArray:
+    """Derivatives of the cable vectors ``v_i = A_i - p - R a_i`` (attachment point to
+    drawing point) by the pose, shape (N, m, 3, n) (m per m, m per rad).
+
+    Parameters
+    ----------
+    robot : CableRobot
+        Without guide pulleys (:func:`cable_frames`).
+    poses : array_like, shape (N, n)
+        Poses (m, rad), in the robot's own coordinates.
+    """
+    p = robot.as_poses(poses)
+    frames = cable_frames(robot, p)
+    return _vector_steps(robot, p, frames.arms, _rotation_map(robot, p))[0]
+
+
 def pose_derivatives(
     robot: CableRobot, poses: ArrayLike, frames: CableFrames | None = None
 ) -> tuple[NDArray, NDArray]:
@@ -172,15 +202,8 @@ def pose_derivatives(
     p = robot.as_poses(poses)
     frames = cable_frames(robot, p) if frames is None else frames
     N, n = p.shape
-    translation = robot.pattern.step_maps()[0]  # (3, n)
     W = _rotation_map(robot, p)
-    dv = np.broadcast_to(-translation, (N, robot.m, 3, n)).copy()
-    if W is None:
-        dr = np.zeros_like(dv)
-    else:
-        # dr = omega x r = -[r]x W dp, and dv = -dp_t - dr.
-        dr = -(skew(frames.arms) @ W[:, None])
-        dv -= dr
+    dv, dr = _vector_steps(robot, p, frames.arms, W)
     du = frames.projector @ dv
     dcol = _full_columns(frames, du, dr)  # (N, m, n, n)
     db = np.zeros((N, n, n))
