@@ -136,6 +136,17 @@ def _timing() -> None:
                  method="reachability")
 
 
+def _facet_normals() -> None:
+    from tension_opt.robot import presets
+    from tension_opt.workspace.hyperplane import wrench_space_margin
+    from tension_opt.workspace.wrench_set import WrenchPolytope
+
+    # The facet normals of the wrench-space margin (tension_opt.kernels.facets).
+    robot = presets.cogiro()
+    box = WrenchPolytope.box(-np.ones(robot.dof), np.ones(robot.dof))
+    wrench_space_margin(robot, np.tile(robot.default_home(), (_BATCH, 1)), box)
+
+
 #: The toolkit's kernel families, in the order the command line runs them.
 FAMILIES: dict[str, Callable[[], None]] = {
     "robot geometry": _geometry,
@@ -144,6 +155,7 @@ FAMILIES: dict[str, Callable[[], None]] = {
     "real-time distributor": _distributor,
     "certificate of generic solvers": _generic_backends,
     "time-optimal timing": _timing,
+    "wrench-space margin": _facet_normals,
 }
 
 
@@ -161,6 +173,7 @@ COMPILE_SECONDS: dict[str, float] = {
     "certificate of generic solvers": 17.0,
     "time-optimal timing": 15.0,
     "robot geometry": 2.0,
+    "wrench-space margin": 2.0,
 }
 
 
