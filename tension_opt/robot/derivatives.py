@@ -31,6 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt.errors import InvalidInputError
 from tension_opt.kinds import PlanarBody, SpatialBody
 from tension_opt.robot.model import CableRobot
+from tension_opt.robot.pulleys import swivel_turn
 
 __all__ = [
     "CableFrames",
@@ -99,21 +100,24 @@ class CableFrames:
 def cable_frames(robot: CableRobot, poses: ArrayLike) -> CableFrames:
     """:class:`CableFrames` of ``poses`` (N, n) from the robot's own geometry.
 
-    Raises
-    ------
-    InvalidInputError
-        For a robot with guide pulleys: its exit points move with the attachment
-        points, which these derivatives (of cables from fixed points) do not hold.
+    Over a guide pulley the cable's direction also turns with the wheel when the
+    attachment point moves sideways: the projector takes the rank-one correction of
+    :func:`tension_opt.robot.pulleys.swivel_turn`.
     """
-    if robot.has_pulleys:
-        raise InvalidInputError(
-            "derivatives by the pose or the points are those of cables from fixed drawing "
-            "points; a robot with guide pulleys has none yet (derivatives by the wrench "
-            "and the bounds take any robot)")
     geometry = robot.cable_geometry(poses)
     u = geometry.unit
     eye = np.eye(3)
     projector = (eye - u[..., :, None] * u[..., None, :]) / geometry.lengths[..., None, None]
+    if robot.pulleys is not None:
+        idx = [i for i, q in enumerate(robot.pulleys) if q is not None]
+        chosen = [q for q in robot.pulleys if q is not None]
+        radii = np.array([q.radius for q in chosen])
+        assert geometry.wrapped is not None
+        normal, rate = swivel_turn(robot.anchors[idx], np.array([q.axis for q in chosen]),
+                                   radii, geometry.attachment_points[:, idx],
+                                   geometry.wrapped[:, idx] / radii)
+        turn = (rate / geometry.lengths[:, idx])[..., None, None]
+        projector[:, idx] -= turn * normal[..., :, None] * normal[..., None, :]
     return CableFrames(
         robot.structure_from(geometry),
         u,
@@ -169,7 +173,8 @@ def vector_derivatives(robot: CableRobot, poses: ArrayLike) -> NDArray:
     Parameters
     ----------
     robot : CableRobot
-        Without guide pulleys (:func:`cable_frames`).
+        Any; over a guide pulley ``v_i`` still ends on the drawing point, not on the
+        exit point.
     poses : array_like, shape (N, n)
         Poses (m, rad), in the robot's own coordinates.
     """

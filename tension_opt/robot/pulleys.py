@@ -33,7 +33,8 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt.checks import as_finite, check_positive, is_number
 from tension_opt.errors import InvalidInputError
 
-__all__ = ["Pulley", "PulleyExits", "check_pulleys", "pulley_exits", "swivel_basis"]
+__all__ = ["Pulley", "PulleyExits", "check_pulleys", "pulley_exits", "swivel_basis",
+           "swivel_turn"]
 
 
 @dataclass(frozen=True)
@@ -183,3 +184,26 @@ def pulley_exits(anchors: ArrayLike, axes: ArrayLike, radii: ArrayLike,
             if arr is not None:
                 arr[degenerate] = np.nan
     return PulleyExits(exits, wrap, span, angle, degenerate)
+
+
+def swivel_turn(anchors: ArrayLike, axes: ArrayLike, radii: ArrayLike, points: ArrayLike,
+                wrap: ArrayLike) -> tuple[NDArray, NDArray]:
+    """How the exit point follows the attachment point sideways: the wheel planes' unit
+    normals ``n = axis x h`` (N, k, 3) and the rate ``r (1 - cos beta) / v`` (N, k) at
+    which the exit point moves along ``n`` per metre that ``B`` moves along it (``v`` the
+    distance of ``B`` from the swivel axis, m).
+
+    Moving ``B`` within the wheel's plane slides the exit point along the cable (no
+    change of direction); moving it along ``n`` turns the wheel by ``dB . n / v`` and
+    carries the exit point, at ``r (1 - cos beta)`` from the axis, with it. So the free
+    span's unit vector ``u`` (towards the exit point, length ``l``) turns as
+    ``du = -[(I - u u') / l - rate n n' / l] dB``.
+    """
+    A, a = np.asarray(anchors, dtype=float), np.asarray(axes, dtype=float)
+    perp = np.asarray(points, dtype=float) - A
+    perp -= np.einsum("nki,ki->nk", perp, a)[..., None] * a
+    v = np.sqrt(np.einsum("nki,nki->nk", perp, perp))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        normal = np.cross(a, perp / v[..., None])
+        rate = np.asarray(radii, dtype=float) * (1.0 - np.cos(wrap)) / v
+    return normal, rate

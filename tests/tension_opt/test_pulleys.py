@@ -263,18 +263,40 @@ def test_caroca_with_rotating_pulleys_matches_caspr_pulley_model():
     assert checked > 100
 
 
-def test_pose_derivatives_refuse_pulleys_and_wrench_derivatives_take_them():
-    robot = to.presets.algae_harvester().with_(pulleys=[to.Pulley(0.3, [0, 0, -1])] * 4)
-    poses = np.array([[-29.4, 10.2, 1.5], [35.0, 22.0, 5.0]])
-    sol = to.distribute(robot, poses, "min_norm", "closed_form")
-    with pytest.raises(InvalidInputError, match="guide pulleys"):
-        sol.jacobian("pose", robot=robot, poses=poses)
-    jac = sol.jacobian("wrench")
-    # d T / d w_ext against a central difference of the solver itself
-    h = 1e-3
-    e = np.array([1.0, 0.0, 0.0])
-    plus = to.distribute(robot, poses, "min_norm", "closed_form", wrench=h * e).tensions
-    minus = to.distribute(robot, poses, "min_norm", "closed_form", wrench=-h * e).tensions
-    assert (jac.status == "ok").all()
-    np.testing.assert_allclose(jac.jacobian[:, :, 0], (plus - minus) / (2 * h), rtol=1e-6,
-                               atol=1e-9)
+def _richardson(f, h):
+    d1 = (f(h) - f(-h)) / (2 * h)
+    d2 = (f(h / 2) - f(-h / 2)) / h
+    return (4 * d2 - d1) / 3
+
+
+@pytest.mark.parametrize("kind", ["point3", "spatial6"])
+def test_tension_derivatives_over_pulleys_match_differences(kind):
+    """By the pose, the drawing points and the attachments: the wheel turns with the
+    platform (the projector's rank-one swivel term), checked against central
+    differences of the solver itself."""
+    robot = pulley_robot(8, kind)
+    rng = np.random.default_rng(2)
+    if kind == "point3":
+        poses = np.array([[-29.4, 10.2, 1.5], [35.0, 22.0, 5.0], [3.0, -4.0, 2.0]])
+    else:
+        poses = robot.home + rng.uniform(-1, 1, (3, 6)) * [0.5, 0.5, 0.3, 0.05, 0.05, 0.05]
+    sol = to.distribute(robot, poses, "min_norm", "cvxpy:CLARABEL", accuracy="high")
+    ok = sol.success
+    assert ok.sum() >= 2
+    solve = lambda r, p: to.distribute(r, p, "min_norm", "closed_form").tensions  # noqa: E731
+    J = sol.jacobian("pose", robot=robot, poses=poses)
+    for k in (0, 1, 2):
+        e = np.zeros(robot.dof)
+        e[k] = 1.0
+        fd = _richardson(lambda s, e=e: solve(robot, poses + s * e), 1e-4)
+        np.testing.assert_allclose(J.jacobian[ok, :, k], fd[ok], rtol=1e-5, atol=1e-5)
+    for wrt in ("drawing_points", "attachment_points"):
+        J = sol.jacobian(wrt, robot=robot, poses=poses)
+        field = "anchors" if wrt == "drawing_points" else "attachments"
+        for i, c in ((0, 0), (2, 1), (3, 2)):
+            def moved(s, i=i, c=c, field=field):
+                pts = np.array(getattr(robot, field))
+                pts[i, c] += s
+                return solve(robot.with_(**{field: pts}), poses)
+            fd = _richardson(moved, 1e-4)
+            np.testing.assert_allclose(J.jacobian[ok, :, i, c], fd[ok], rtol=1e-5, atol=1e-5)
