@@ -46,6 +46,7 @@ __all__ = [
     "planes_along",
     "platform_forces",
     "refuse_pulleys",
+    "straight_planes",
     "taut_catenaries",
 ]
 
@@ -105,6 +106,14 @@ def cable_planes(robot: CableRobot, poses: NDArray) -> CablePlanes:
     CablePlanes
     """
     refuse_pulleys(robot)
+    geometry = robot.cable_geometry(poses, check=False)
+    return planes_along(geometry.position, np.asarray(geometry.rotation), geometry.arms,
+                        geometry.vectors)
+
+
+def straight_planes(robot: CableRobot, poses: NDArray) -> CablePlanes:
+    """:func:`cable_planes` of the straight cables, guide pulleys allowed: over a pulley
+    a cable's plane runs from its attachment point to where it leaves the wheel."""
     geometry = robot.cable_geometry(poses, check=False)
     return planes_along(geometry.position, np.asarray(geometry.rotation), geometry.arms,
                         geometry.vectors)

@@ -25,6 +25,9 @@ unstretched length is ``r beta / (1 + T / EA)``.
 
 A pulley whose axis is not vertical would turn out of the catenary's plane: that needs
 the swivel angle as a second unknown, and is refused here with an error.
+
+Straight elastic cables over pulleys (any axis) have their platform-end stiffness in
+:func:`pulley_cable_stiffness`.
 """
 
 from __future__ import annotations
@@ -36,14 +39,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tension_opt import CableRobot
+from tension_opt.robot.derivatives import cable_frames
 from tension_opt.robot.pulleys import pulley_exits
 
 from .errors import InvalidCableError
 from .geometry import E_Z, CablePlanes, planes_along
 from .solve import solve_length
 
-__all__ = ["MAX_WRAP_STEPS", "WRAP_TOL", "PulleySag", "WheelFrames", "settle_wraps",
-           "vertical_pulleys"]
+__all__ = ["MAX_WRAP_STEPS", "WRAP_TOL", "PulleySag", "WheelFrames", "pulley_cable_stiffness",
+           "settle_wraps", "vertical_pulleys"]
 
 FloatArray = NDArray[np.float64]
 
@@ -216,3 +220,18 @@ def _at(shape: tuple[int, ...], n: NDArray[np.intp], c: NDArray[np.intp],
     out = np.full(shape, np.nan)
     out[n, c] = values
     return out
+
+
+def pulley_cable_stiffness(robot: CableRobot, poses: FloatArray, tensions: FloatArray,
+                           EA: float) -> FloatArray:
+    """Stiffness of straight elastic cables over guide pulleys at their platform end,
+    (N, m, 3, 3) (N/m): ``K = ((EA + T) / L) u u' + T P``, ``L`` the whole stretched
+    cable (arc and free span), ``P`` the derivative of the free span's direction by the
+    attachment point (:func:`tension_opt.robot.derivatives.cable_frames`: ``(I - u u')
+    / l`` less the wheel's swivel term); for a cable without a pulley, the same as
+    :func:`catenary.robot_stiffness.straight_cable_stiffness`."""
+    frames = cable_frames(robot, poses)
+    u, L = frames.unit, robot.cable_geometry(poses).total_lengths
+    uu = u[..., :, None] * u[..., None, :]
+    return ((EA + tensions) / L)[..., None, None] * uu + tensions[..., None, None] * (
+        frames.projector)

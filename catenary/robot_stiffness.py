@@ -66,9 +66,11 @@ from .geometry import (
     cable_planes,
     equilibrium_residual,
     platform_forces,
+    straight_planes,
     taut_catenaries,
 )
 from .inverse import inverse_kinematics
+from .pulleys import pulley_cable_stiffness
 from .stiffness_compiled import CatenaryState, CompiledBatch, batch_analysis
 from .stiffness_kernels import FALLBACK
 
@@ -333,8 +335,10 @@ def given_tensions(robot: CableRobot, tensions: ArrayLike, N: int) -> FloatArray
 
 def straight_state(robot: CableRobot, poses: FloatArray, tensions: ArrayLike | None,
                    wrench: ArrayLike | None, solve: dict[str, Any]) -> CableState:
-    """Straight elastic cables with the given or the distributed tensions."""
-    _, EA = cable_data(robot)
+    """Straight elastic cables with the given or the distributed tensions; over guide
+    pulleys the whole cable stretches and the free span turns with its wheel
+    (:func:`catenary.pulleys.pulley_cable_stiffness`)."""
+    _, EA = cable_data(robot, pulleys=True)
     if not np.isfinite(EA):
         raise InvalidCableError(
             "the straight model needs elastic cables (finite EA): inextensible straight "
@@ -350,8 +354,11 @@ def straight_state(robot: CableRobot, poses: FloatArray, tensions: ArrayLike | N
         T, status = given_tensions(robot, tensions, N), status_array(N, Status.CONVERGED)
         status[np.isnan(T).any(axis=1)] = Status.NOT_RUN
     L, u = geometry.lengths, geometry.unit
-    return CableState(T[..., None] * u, straight_cable_stiffness(u, L, T, EA), T,
-                       L * EA / (EA + T), status)
+    if robot.has_pulleys:
+        K, L = pulley_cable_stiffness(robot, poses, T, EA), geometry.total_lengths
+    else:
+        K = straight_cable_stiffness(u, L, T, EA)
+    return CableState(T[..., None] * u, K, T, L * EA / (EA + T), status)
 
 
 def coupled_state(robot: CableRobot, poses: FloatArray, planes: CablePlanes,
@@ -474,7 +481,7 @@ def _analysis(robot: CableRobot, poses: ArrayLike, tensions: ArrayLike | None,
             if left.size:
                 _reference_into(result, robot, p, left, batch, end, wrench, full)
             return result
-    planes = cable_planes(robot, p)
+    planes = straight_planes(robot, p) if model == "straight" else cable_planes(robot, p)
     if model == "straight":
         state = straight_state(robot, p, tensions, wrench, solve)
     else:

@@ -300,3 +300,30 @@ def test_tension_derivatives_over_pulleys_match_differences(kind):
                 return solve(robot.with_(**{field: pts}), poses)
             fd = _richardson(moved, 1e-4)
             np.testing.assert_allclose(J.jacobian[ok, :, i, c], fd[ok], rtol=1e-5, atol=1e-5)
+
+
+def test_straight_stiffness_over_pulleys_is_minus_the_wrench_derivative():
+    """Straight elastic cables over swivel pulleys, unstretched lengths held: the
+    platform stiffness is minus the derivative of the cables' wrench by the pose (the
+    free span's direction turns with the wheel, the whole cable stretches)."""
+    base = to.presets.cogiro()
+    robot = pulley_robot(4)
+    rng = np.random.default_rng(6)
+    poses = base.home + rng.uniform(-1, 1, (3, 6)) * [0.5, 0.5, 0.3, 0.05, 0.05, 0.05]
+    EA = robot.cable.EA
+    assert np.isfinite(EA)
+    res = catenary.stiffness_analysis(robot, poses, model="straight")
+    assert np.isin(res.status, ("optimal", "converged")).all()
+    L0 = res.lengths  # unstretched, arcs included
+
+    def wrench(p):
+        L, _ = robot.inverse_kinematics(p)
+        T = EA * (L - L0) / L0
+        return np.einsum("nij,nj->ni", robot.structure_matrices(p), T)
+
+    for k in range(3):  # translations: plain coordinates
+        e = np.zeros(6)
+        e[k] = 1.0
+        fd = _richardson(lambda s, e=e: wrench(poses + s * e), 1e-5)
+        np.testing.assert_allclose(-fd, res.stiffness[:, :, k], rtol=1e-6,
+                                   atol=1e-6 * np.abs(res.stiffness).max())
