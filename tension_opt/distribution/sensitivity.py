@@ -42,8 +42,11 @@ Parameters (``wrt``): the external ``"wrench"`` (``b = -(w_g + w)``), the ``"pos
 (through the structure matrix and the gravity wrench of a turning platform, by the
 analytic derivatives of :mod:`tension_opt.robot.derivatives`), the bounds ``"t_min"``
 and ``"t_max"`` (the bounds, and the target of ``centered``), and the robot's
-``"drawing_points"`` (base frame) and ``"attachment_points"`` (platform frame). A
-smoothed problem is differentiated with its previous tensions held fixed.
+``"drawing_points"`` (base frame) and ``"attachment_points"`` (platform frame), and the
+``"previous"`` tensions a smoothed or rate-limited pose was solved against: the
+smoothing term ``smoothing ||T - T_prev||^2`` moves the cost by ``-2 smoothing dT_prev``,
+and a rate limit's band ``T_prev -+ rate``, where it is the active bound, moves with
+them. Any other parameter is differentiated with the previous tensions held fixed.
 """
 
 from __future__ import annotations
@@ -73,7 +76,8 @@ __all__ = [
 ]
 
 #: What a Jacobian may be taken with respect to.
-WRT = ("wrench", "pose", "t_min", "t_max", "drawing_points", "attachment_points")
+WRT = ("wrench", "pose", "t_min", "t_max", "drawing_points", "attachment_points",
+       "previous")
 #: Per-pose statuses of a :class:`Sensitivity`, in the order of their codes.
 SENSITIVITY_STATUSES = ("ok", "non_unique", "degenerate", "not_optimal")
 _OK, _NON_UNIQUE, _DEGENERATE, _NOT_OPTIMAL = range(4)
@@ -245,7 +249,7 @@ def _checked_form(
 def _shape(wrt: str, N: int, m: int, n: int) -> tuple[int, ...]:
     if wrt in ("wrench", "pose"):
         return (N, m, n)
-    if wrt in ("t_min", "t_max"):
+    if wrt in ("t_min", "t_max", "previous"):
         return (N, m, m)
     return (N, m, m, 3)
 
@@ -329,7 +333,7 @@ class _Kkt:
         """Right-hand sides (M, S, D) of the parameters ``wrt``."""
         M, n, k, g, m = self.M, self.n, self.k, self.g, self.m
         S, o_eq, o_z = 2 * k + n + g, k, k + n + g
-        D = {"wrench": n, "pose": n, "t_min": m, "t_max": m}.get(wrt, 3 * m)
+        D = {"wrench": n, "pose": n, "t_min": m, "t_max": m, "previous": m}.get(wrt, 3 * m)
         rhs = np.zeros((M, S, D))
         an, am = np.arange(n), np.arange(m)
         s = self.s
@@ -343,6 +347,8 @@ class _Kkt:
                 # c = -w (lb + ub): -dc / (top per_s) on the cable's own row.
                 w = problem.cable_weights(m)
                 rhs[:, am, am] = w[None, :] / self.unit_c[:, None]
+        elif wrt == "previous":
+            self._previous_rhs(rhs)
         elif wrt == "pose":
             dA, db = extra
             dAs = dA * self.rows[:, :, None, None]  # (M, n, m, D)
@@ -358,6 +364,20 @@ class _Kkt:
             eq = -(dcs * self.x[:, :m, None, None])  # (M, m, n, 3)
             rhs[:, o_eq : o_eq + n] = np.swapaxes(eq, 1, 2).reshape(M, n, 3 * m)
         return rhs
+
+    def _previous_rhs(self, rhs: NDArray) -> None:
+        """Right-hand sides (M, S, m) of the previous tensions, in place: the smoothing
+        term's cost ``-2 smoothing T_prev`` and the active rate-limit bands."""
+        problem, m, o_z = self.form.problem, self.m, self.k + self.n + self.g
+        am = np.arange(m)
+        if problem is None or self.form.previous is None:
+            return
+        if problem.smoothing:  # -dc, scaled as the form's c
+            rhs[:, am, am] = 2.0 * problem.smoothing / self.unit_c[:, None]
+        if problem.rate_limit is not None:
+            band = (self.lo[:, :m] * (1.0 - self._follows("t_min"))
+                    + self.hi[:, :m] * (1.0 - self._follows("t_max")))
+            rhs[:, o_z + am, am] = band / self.s[:, None]
 
     def _follows(self, wrt: str) -> NDArray:
         """Where the form's bound is the problem's ``wrt`` bound (M, m) (a rate limit

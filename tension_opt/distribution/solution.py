@@ -345,7 +345,8 @@ class TensionSolution:
         the arguments, shapes and per-pose statuses).
 
         ``wrt`` is ``"wrench"``, ``"pose"``, ``"t_min"``, ``"t_max"``,
-        ``"drawing_points"`` or ``"attachment_points"``; the pose and the points need
+        ``"drawing_points"``, ``"attachment_points"`` or ``"previous"`` (the tensions a
+        smoothed or rate-limited pose was solved against); the pose and the points need
         ``robot=`` and ``poses=``, as does a solution solved in chunks (no form kept).
         """
         return tension_jacobian(self, wrt, robot=robot, poses=poses, wrench=wrench,

@@ -326,3 +326,40 @@ def test_unsolved_poses_are_not_optimal():
     sens = sol.jacobian("wrench")
     assert sens.status[-1] == "not_optimal" and np.isnan(sens.jacobian[-1]).all()
     assert sens.ok[:2].all()
+
+
+@pytest.mark.parametrize("backend", ["closed_form", "cvxpy:CLARABEL"])
+@pytest.mark.parametrize(("objective", "fields"), [
+    ("min_norm", {"smoothing": 0.5}),
+    ("min_sum", {"smoothing": 2e-4}),
+    ("min_sum", {"rate_limit": 300.0}),
+    ("min_norm", {"smoothing": 0.1, "rate_limit": 250.0}),
+])
+def test_previous_tensions_derivative_matches_differences(objective, fields, backend):
+    """d T / d T_prev of smoothed and rate-limited poses (the smoothing's cost and the
+    active rate-limit band), against Richardson-extrapolated central differences of the
+    solver: the exact closed form, and a generic backend's certified multipliers."""
+    robot = to.presets.algae_harvester()
+    poses = np.array([[-29.4, 10.2, 1.5], [35.0, 22.0, 5.0], [3.0, -4.0, 2.0],
+                      [10.0, 5.0, 1.0]])
+    plain = to.distribute(robot, poses, "min_norm").tensions
+    previous = plain + np.array([[400.0, -300.0, 200.0, -100.0]])
+    problem = to.TensionProblem(objective, **fields)
+
+    def solve(prev):
+        return to.distribute(robot, poses, problem, backend, previous=prev, accuracy="high")
+
+    J = solve(previous).jacobian("previous")
+    assert J.jacobian.shape == (4, 4, 4)
+    assert J.ok.all()
+    h = 1e-3
+    for j in range(4):
+        e = np.zeros(4)
+        e[j] = h
+        d1 = (solve(previous + e).tensions - solve(previous - e).tensions) / (2 * h)
+        d2 = (solve(previous + e / 2).tensions - solve(previous - e / 2).tensions) / h
+        fd = (4 * d2 - d1) / 3
+        np.testing.assert_allclose(J.jacobian[:, :, j], fd,
+                                   atol=1e-7 if backend == "closed_form" else 1e-6)
+    if "rate_limit" in fields:  # some tension rides its band: it follows T_prev one to one
+        assert np.isclose(np.abs(J.jacobian), 1.0, atol=1e-9).any()
