@@ -363,3 +363,47 @@ def test_previous_tensions_derivative_matches_differences(objective, fields, bac
                                    atol=1e-7 if backend == "closed_form" else 1e-6)
     if "rate_limit" in fields:  # some tension rides its band: it follows T_prev one to one
         assert np.isclose(np.abs(J.jacobian), 1.0, atol=1e-9).any()
+
+
+@pytest.mark.parametrize(("fields", "tol"), [({"rate_limit": 300.0}, 1e-5),
+                                            ({"smoothing": 2e-4}, 1e-3)])
+def test_previous_against_cvxpy_derivative(fields, tol):
+    """d T / d T_prev against cvxpy's derivative of the same parametrised problem
+    (diffcp): a rate-limited LP (exact at its vertex) and a smoothed min-sum QP (as
+    accurate as the cone solver solves its second-order cone)."""
+    pytest.importorskip("diffcp", reason="cvxpy's derivative needs diffcp (pip install diffcp)")
+    import cvxpy as cp
+
+    robot = to.presets.algae_harvester()
+    poses = np.array([[-29.4, 10.2, 1.5], [35.0, 22.0, 5.0], [3.0, -4.0, 2.0]])
+    shift = np.array([400.0, -300.0, 200.0, -100.0])
+    previous = to.distribute(robot, poses, "min_norm").tensions + shift
+    problem = to.TensionProblem("min_sum", **fields)
+    ours = to.distribute(robot, poses, problem, "closed_form", previous=previous).jacobian(
+        "previous")
+    assert ours.ok.all()
+    m = robot.m
+    for k in range(len(poses)):
+        A = robot.structure_matrices(poses[k : k + 1])[0]
+        b = robot.required_wrench(poses[k : k + 1])[0]
+        # In tensions over s (about the weight): the cone solver sees numbers near one.
+        s = np.abs(b).max()
+        x, prev = cp.Variable(m), cp.Parameter(m)
+        cost = cp.sum(x)
+        constraints = [A @ x == b / s, x >= robot.t_min / s]
+        if "rate_limit" in fields:
+            rate = fields["rate_limit"] / s
+            constraints += [x >= prev - rate, x <= prev + rate]
+        else:  # sum T + smoothing ||T - T_prev||^2, over s
+            cost = cost + fields["smoothing"] * s * cp.sum_squares(x - prev)
+        cvx = cp.Problem(cp.Minimize(cost), constraints)
+        prev.value = previous[k] / s
+        cvx.solve(requires_grad=True, mode="dense", solve_method="CLARABEL",
+                  tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10)
+        theirs = np.zeros((m, m))
+        for j in range(m):
+            prev.delta = np.eye(m)[j]
+            cvx.derivative()
+            theirs[:, j] = x.delta  # d(T/s)/d(T_prev/s) = dT/dT_prev
+        assert np.abs(ours.jacobian[k] - theirs).max() <= tol * max(
+            np.abs(ours.jacobian[k]).max(), 1.0), k
