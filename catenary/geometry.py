@@ -155,7 +155,7 @@ def refuse_pulleys(robot: CableRobot) -> None:
     if robot.has_pulleys:
         raise InvalidCableError(
             "this sag computation spans each cable from a fixed drawing point and does not "
-            "model guide pulleys; catenary.inverse_kinematics does (vertical swivel axes), "
+            "model guide pulleys; catenary.inverse_kinematics does, "
             "and the straight kinematics (robot.inverse_kinematics) take any pulley")
 
 

@@ -185,8 +185,8 @@ def inverse_kinematics(
     Parameters
     ----------
     robot : CableRobot
-        Needs ``robot.cable`` (``linear_mass * g`` and ``EA``); over guide pulleys (vertical
-        axes) a cable leaves its wheel tangentially (:mod:`catenary.pulleys`).
+        Needs ``robot.cable`` (``linear_mass * g`` and ``EA``); over guide pulleys a
+        cable leaves its wheel tangentially (:mod:`catenary.pulleys`).
     poses : array_like, shape (N, n) or (n,)
         Platform poses (m, rad); see :mod:`tension_opt.robot`.
     model : {"thesis", "coupled"}
@@ -328,26 +328,27 @@ def _over_pulleys(robot: CableRobot, p: FloatArray, model: str, straight: Tensio
         solution.status[attempt & ~sag.settled.all(axis=1)] = Status.CATENARY_FAILED
     else:
         frames = WheelFrames(robot, p)
-        wrap = frames.straight_wrap
+        h, wrap = frames.straight_h, frames.straight_wrap
         start_tensions = initial_tensions
         if initial_tensions is None and not attempt.all():
             start_tensions = _fixed_point_start(robot, p, straight, call, settings, options)
         for _ in range(MAX_WRAP_STEPS):
-            planes = frames.planes(wrap)
+            planes = frames.planes(h, wrap)
             solution = _coupled(robot, p, planes, straight, objective, backend, wrench,
                                 start_tensions, (w, EA), settings["tol"],
                                 settings["max_iter"], options)
-            new = frames.tangent_wraps(planes, solution.H[:, frames.idx],
-                                       solution.V_B[:, frames.idx])
-            moved = np.abs(new - wrap)
-            wrap = np.where(np.isfinite(new), new, wrap)
+            new_h, new = frames.tangent(planes, solution.H[:, frames.idx],
+                                        solution.V_B[:, frames.idx], h)
+            moved = np.abs(new - wrap) + np.linalg.norm(new_h - h, axis=-1)
+            keep = np.isfinite(new)
+            wrap, h = np.where(keep, new, wrap), np.where(keep[..., None], new_h, h)
             start_tensions = solution.tensions
             if not (moved > WRAP_TOL).any():
                 break
         settled = ~(moved > WRAP_TOL)
         solution.status[(solution.status == Status.CONVERGED) & ~settled.all(axis=1)] = (
             Status.MAX_ITER)
-        sag = frames.sag(wrap, np.zeros(wrap.shape, np.int64), settled)
+        sag = frames.sag(h, wrap, np.zeros(wrap.shape, np.int64), settled)
     result = _result(robot, p, wrench, sag.planes, solution, model,
                      time.perf_counter() - start)
     if model == "coupled":

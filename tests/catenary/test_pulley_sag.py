@@ -91,21 +91,60 @@ def test_elastic_cables_stretch_over_the_wheel_too():
     assert (b.lengths < a.lengths).all()
 
 
-def test_tilted_pulley_axes_are_refused_with_sag_only():
-    robot = to.presets.algae_harvester().with_(
-        pulleys=[to.Pulley(0.3, [0.2, 0, -1])] + [None] * 3)
-    robot.inverse_kinematics(POSES)  # straight: any axis
-    with pytest.raises(catenary.InvalidCableError, match="not vertical"):
-        catenary.inverse_kinematics(robot, POSES, model="thesis")
+def tilted(tilt: float = 0.25, radius: float = 0.3) -> to.CableRobot:
+    """The study robot whose tower pulleys' axes lean inwards by ``tilt`` (rad)."""
+    robot = to.presets.algae_harvester()
+    inward = -robot.anchors[:, :2] / np.linalg.norm(robot.anchors[:, :2], axis=1)[:, None]
+    axes = np.column_stack([np.sin(tilt) * inward, -np.full(robot.m, np.cos(tilt))])
+    return robot.with_(pulleys=[to.Pulley(radius, a) for a in axes])
+
+
+def test_tilted_axes_swivel_the_wheel_out_of_the_straight_plane_and_stay_tangent():
+    """A tilted swivel axis: the wheel's direction and wrap both move; the catenary's
+    own direction at its exit point (sampled shape) is the wheel's tangent there."""
+    robot = tilted()
+    w, EA = robot.cable.weight_per_length(robot.g), robot.cable.EA
+    T = to.distribute(robot, POSES).tensions
+    sag = settle_wraps(robot, POSES, T, np.ones(len(POSES), bool), w, EA)
+    assert sag.settled.all()
+    c = catenary.solve_length(sag.planes.x, sag.planes.z, T, w, EA, "B")
+    _, x, z = profile(c.H, c.V_B, c.L0, w, EA, n=200_001)
+    dx = 3 * x[..., -1] - 4 * x[..., -2] + x[..., -3]
+    dz = 3 * z[..., -1] - 4 * z[..., -2] + z[..., -3]
+    # the cable runs from its exit point towards B: against the profile's end tangent
+    travel = -(dx[..., None] * sag.planes.e_h + dz[..., None] * np.array([0.0, 0.0, 1.0]))
+    travel /= np.linalg.norm(travel, axis=-1, keepdims=True)
+    axes = np.array([np.asarray(q.axis) for q in robot.pulleys])
+    beta = sag.wrap[..., None]
+    wheel = -np.cos(beta) * axes + np.sin(beta) * sag.directions
+    np.testing.assert_allclose(travel, wheel, atol=1e-7)
+    # the wheel swivelled out of the plane of the straight cable's wheel
+    straight = robot.cable_geometry(POSES)
+    assert np.isfinite(straight.wrapped).all()
+    res = catenary.inverse_kinematics(robot, POSES, model="coupled")
+    assert (res.status == "converged").all()
+    assert res.equilibrium_residual.max() <= 1e-9 * robot.weight
+
+
+def test_tilted_vanishing_wheels_give_the_fixed_drawing_points():
+    plain = to.presets.algae_harvester()
+    for model in ("thesis", "coupled"):
+        fixed = catenary.inverse_kinematics(plain, POSES, model=model)
+        tiny = catenary.inverse_kinematics(tilted(0.4, 1e-9), POSES, model=model)
+        np.testing.assert_allclose(tiny.lengths, fixed.lengths, atol=1e-7)
 
 
 @settings(max_examples=15, deadline=None)
 @given(radius=st.floats(0.01, 1.0), height=st.floats(5.0, 15.0),
        x=st.floats(-35.0, 35.0), y=st.floats(-20.0, 20.0), z=st.floats(0.0, 4.0),
-       winch_above=st.booleans())
+       winch_above=st.booleans(), tilt=st.floats(0.0, 0.5))
 def test_random_wheels_and_poses_balance_and_leave_tangentially(radius, height, x, y, z,
-                                                                 winch_above):
-    robot = towers(radius, 1.0 if winch_above else -1.0, tower_height=height)
+                                                                 winch_above, tilt):
+    base = to.presets.algae_harvester(tower_height=height)
+    inward = -base.anchors[:, :2] / np.linalg.norm(base.anchors[:, :2], axis=1)[:, None]
+    sign = 1.0 if winch_above else -1.0
+    axes = np.column_stack([np.sin(tilt) * inward, np.full(base.m, sign * np.cos(tilt))])
+    robot = base.with_(pulleys=[to.Pulley(radius, a) for a in axes])
     pose = np.array([[x, y, z]])
     res = catenary.inverse_kinematics(robot, pose, model="coupled")
     if res.status[0] != "converged":
