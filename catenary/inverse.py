@@ -317,7 +317,8 @@ def _over_pulleys(robot: CableRobot, p: FloatArray, model: str, straight: Tensio
     wrap angles in turn, until the wraps move less than ``WRAP_TOL`` (``call``: the
     objective, backend and wrench). The coupled model starts the poses whose
     straight-line distribution failed from the coupled answer of the robot with fixed
-    drawing points (:func:`_fixed_point_start`), unless ``initial_tensions`` are given."""
+    drawing points (:func:`_fixed_point_start`), unless ``initial_tensions`` are given;
+    where that start leads nowhere the pose reads ``NOT_CONVERGED``, not infeasible."""
     objective, backend, wrench = call
     w, EA = cable_data(robot, pulleys=True)
     attempt = np.asarray(straight.status == Status.OPTIMAL, dtype=bool)
@@ -348,6 +349,12 @@ def _over_pulleys(robot: CableRobot, p: FloatArray, model: str, straight: Tensio
         settled = ~(moved > WRAP_TOL)
         solution.status[(solution.status == Status.CONVERGED) & ~settled.all(axis=1)] = (
             Status.MAX_ITER)
+        if initial_tensions is None and start_tensions is not None:
+            # Sag held these poses with fixed drawing points; over the wheels the
+            # iteration from there did not: that is no proof that nothing can.
+            tried = ~attempt & np.isfinite(start_tensions).all(axis=1)
+            solution.status[tried & (solution.status == Status.INFEASIBLE)] = (
+                Status.NOT_CONVERGED)
         sag = frames.sag(h, wrap, np.zeros(wrap.shape, np.int64), settled)
     result = _result(robot, p, wrench, sag.planes, solution, model,
                      time.perf_counter() - start)

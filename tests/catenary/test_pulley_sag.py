@@ -154,3 +154,19 @@ def test_random_wheels_and_poses_balance_and_leave_tangentially(radius, height, 
     straight, _ = robot.inverse_kinematics(pose)
     if thesis.status[0] == "converged":
         assert (thesis.lengths >= straight - 1e-9).all()  # inextensible: sag lengthens
+
+
+def test_a_pose_sag_holds_is_never_called_infeasible_over_wheels():
+    """Where the fixed drawing points' coupled model holds a pose that has no
+    straight-line tensions, the pulley robot either holds it too or says its iteration
+    did not settle, never "infeasible" (its margin search spans fixed points)."""
+    plain = to.presets.algae_harvester()
+    rng = np.random.default_rng(0)
+    poses = np.column_stack([rng.uniform(-40, 40, 300), rng.uniform(-25, 25, 300),
+                             rng.uniform(0, 6, 300)])
+    fixed = catenary.inverse_kinematics(plain, poses, model="coupled")
+    wheels = catenary.inverse_kinematics(towers(), poses, model="coupled")
+    held = fixed.status == "converged"
+    assert held.all()
+    assert not (wheels.status[held] == "infeasible").any()
+    assert (wheels.status == "converged").mean() > 0.99
