@@ -60,8 +60,9 @@ from tension_opt.workspace.interference import cable_clearance as straight_clear
 from tension_opt.workspace.interference_free import InterferenceResult, interference_result
 
 from .elastic import axial_compliance, evaluate
-from .geometry import E_Z, cable_data, cable_planes, check_robot
+from .geometry import E_Z, CablePlanes, cable_data, cable_planes, check_robot
 from .inverse import inverse_kinematics
+from .pulleys import settle_wraps
 from .workspace import sag_workspace
 
 __all__ = [
@@ -70,6 +71,7 @@ __all__ = [
     "CurveDistance",
     "cable_clearance",
     "curve_distance",
+    "curves_in",
     "interference_free_workspace",
     "robot_curves",
 ]
@@ -423,12 +425,35 @@ def robot_curves(
     """
     w, EA = cable_data(robot)
     planes = cable_planes(robot, poses)
+    return curves_in(planes, H, V_A, L0, w, EA, robot.anchors[None])
+
+
+def curves_in(planes: CablePlanes, H: ArrayLike, V_A: ArrayLike, L0: ArrayLike, w: float,
+              EA: float, tops: NDArray | None = None) -> CatenaryCurves:
+    """The catenaries of cables spanning ``planes`` (N, m) from their attachment points to
+    their upper ends (drawing points, or where they leave their guide pulleys), with
+    horizontal tensions ``H``, vertical forces at the platform ``V_A`` (N) and
+    unstretched free lengths ``L0`` (m), (N, m) each; ending on those upper ends
+    (``tops``, (N, m, 3) or broadcast; default the planes' own)."""
     origin = planes.position[:, None, :] + planes.arms
     H, V_A, L0 = (np.asarray(v, dtype=float) for v in (H, V_A, L0))
     open_curves = CatenaryCurves(origin, planes.e_h, H, V_A, L0, w, EA, np.zeros_like(origin))
     end = open_curves.points(L0[..., None], closed=False)[..., 0, :]
-    closure = robot.anchors[None] - end
-    return CatenaryCurves(origin, planes.e_h, H, V_A, L0, w, EA, closure)
+    if tops is None:
+        tops = origin + planes.x[..., None] * planes.e_h + planes.z[..., None] * E_Z
+    return CatenaryCurves(origin, planes.e_h, H, V_A, L0, w, EA, tops - end)
+
+
+def _curves_over_wheels(robot: CableRobot, P: NDArray, res: Any, H: NDArray, V_A: NDArray,
+                        nan: NDArray) -> CatenaryCurves:
+    """The free spans of a robot with guide pulleys, from the attachment points to where
+    the cables leave their wheels: the wheel states settled again under the answer's
+    exit tensions are the answer's own (:func:`catenary.pulleys.settle_wraps`)."""
+    w, EA = cable_data(robot, pulleys=True)
+    T = np.where(np.isfinite(res.tensions), res.tensions, 0.0)
+    sag = settle_wraps(robot, P, T, res.success, w, EA)
+    free = (res.lengths - sag.arcs(res.tensions, EA)) * nan
+    return curves_in(sag.planes, H, V_A, free, w, EA)
 
 
 def _check_model(model: object) -> Literal["straight", "coupled", "thesis"]:
@@ -487,14 +512,15 @@ def cable_clearance(
     model = _check_model(model)
     if model == "straight":
         return straight_clearance(robot, poses, shared_trim=shared_trim)
-    check_robot(robot)
+    check_robot(robot, pulleys=True)
     trim = check_trim(shared_trim)
     whole_positive("samples", samples)
     P = robot.as_poses(poses)
     res = inverse_kinematics(robot, P, model, **options)
     nan = np.where(res.success[:, None] & np.isfinite(res.lengths), 1.0, np.nan)
     H, V_A = res.horizontal_tensions * nan, res.platform_forces[..., 2] * nan
-    curves = robot_curves(robot, P, H, V_A, res.lengths * nan)
+    curves = (_curves_over_wheels(robot, P, res, H, V_A, nan) if robot.has_pulleys
+              else robot_curves(robot, P, H, V_A, res.lengths * nan))
     pairs = cable_pairs(robot.m)
     at_platform, at_anchor = shared_ends(robot, pairs)
     frac = pair_ranges(at_platform, at_anchor, trim)  # (P, 2, 2)

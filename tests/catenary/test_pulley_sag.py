@@ -170,3 +170,38 @@ def test_a_pose_sag_holds_is_never_called_infeasible_over_wheels():
     assert held.all()
     assert not (wheels.status[held] == "infeasible").any()
     assert (wheels.status == "converged").mean() > 0.99
+
+
+@pytest.mark.parametrize("model", ["thesis", "coupled"])
+def test_sagging_cable_clearance_over_wheels(model):
+    """The clearance of cables leaving their wheels: a vanishing wheel gives the fixed
+    drawing points' answer, and the certified distance brackets dense sampling of the
+    curves themselves (their ends: the attachment and the exit point)."""
+    poses = np.array([[-29.4, 10.2, 1.5], [10.0, -5.0, 2.0]])
+    fixed = catenary.cable_clearance(to.presets.algae_harvester(), poses, model=model)
+    tiny = catenary.cable_clearance(towers(1e-9), poses, model=model)
+    np.testing.assert_allclose(tiny.distances, fixed.distances, atol=1e-7)
+    robot = tilted(0.25)
+    res = catenary.cable_clearance(robot, poses, model=model)
+    assert (res.lower_bound <= res.distances + 1e-12).all()
+    ik = catenary.inverse_kinematics(robot, poses, model=model)
+    w, EA = robot.cable.weight_per_length(robot.g), robot.cable.EA
+    sag = settle_wraps(robot, poses, ik.tensions, ik.success, w, EA)
+    free = ik.lengths - sag.arcs(ik.tensions, EA)
+    curves = catenary.interference.curves_in(sag.planes, ik.horizontal_tensions,
+                                             ik.platform_forces[..., 2], free, w, EA)
+    ends = curves.points(free[..., None])[..., 0, :]
+    tops = sag.planes.position[:, None] + sag.planes.arms + sag.planes.x[..., None] * (
+        sag.planes.e_h) + sag.planes.z[..., None] * np.array([0.0, 0.0, 1.0])
+    np.testing.assert_allclose(ends, tops, atol=1e-9)  # the curves end on the exit points
+    # The study's cables meet at the platform point: compared away from it, as the
+    # clearance does (shared_trim of each cable's length left out there).
+    from tension_opt.workspace.interference import SHARED_TRIM
+
+    s = np.linspace(SHARED_TRIM, 1.0, 2001)
+    pts = curves.points(free[..., None] * s)  # (N, m, k, 3)
+    for p in range(len(poses)):
+        for q, (i, j) in enumerate(res.pairs):
+            gap = np.linalg.norm(pts[p, i][:, None] - pts[p, j][None], axis=-1).min()
+            assert res.distances[p, q] <= gap + 1e-9
+            assert res.lower_bound[p, q] <= gap + 1e-9
