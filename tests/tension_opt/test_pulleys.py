@@ -218,7 +218,9 @@ def test_sag_models_without_pulleys_refuse_them_instead_of_ignoring_them():
     lengths = catenary.inverse_kinematics(towers, [[0, 0, 0]]).lengths
     for call in (lambda: catenary.forward_kinematics(towers, lengths),
                  lambda: catenary.platform_stiffness(towers, [[0, 0, 0]]),
-                 lambda: catenary.cable_clearance(towers, [[0, 0, 0]], model="coupled")):
+                 lambda: catenary.coupled_margin(towers, [[0, 0, 0]]),
+                 lambda: catenary.sag_workspace(towers, [[0, 0, 0]]),
+                 lambda: catenary.plot_robot(towers, [0, 0, 0])):
         with pytest.raises(catenary.InvalidCableError, match="pulleys"):
             call()
 
