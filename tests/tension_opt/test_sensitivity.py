@@ -407,3 +407,29 @@ def test_previous_against_cvxpy_derivative(fields, tol):
             theirs[:, j] = x.delta  # d(T/s)/d(T_prev/s) = dT/dT_prev
         assert np.abs(ours.jacobian[k] - theirs).max() <= tol * max(
             np.abs(ours.jacobian[k]).max(), 1.0), k
+
+
+def test_previous_of_a_smoothed_path_is_each_poses_own_partial():
+    """Along a smoothed path each pose was solved against the answer before it: its
+    derivative by those previous tensions is the one-pose derivative there."""
+    robot = to.presets.algae_harvester()
+    path = np.column_stack([np.linspace(-20, 20, 30), np.linspace(-10, 10, 30),
+                            np.full(30, 2.0)])
+    problem = to.TensionProblem("min_norm", smoothing=0.5)
+    sol = to.distribute(robot, path, problem, "closed_form")
+    J = sol.jacobian("previous")
+    assert J.ok.all()
+    for k in (5, 17, 29):
+        one = to.distribute(robot, path[k], problem, "closed_form",
+                            previous=sol.tensions[k - 1]).jacobian("previous")
+        np.testing.assert_allclose(J.jacobian[k], one.jacobian[0], atol=1e-12)
+        h = 1e-3
+        fd = np.zeros((4, 4))
+        for j in range(4):
+            e = np.zeros(4)
+            e[j] = h
+            ends = [to.distribute(robot, path[k], problem, "closed_form",
+                                  previous=sol.tensions[k - 1] + sign * e).tensions[0]
+                    for sign in (1.0, -1.0)]
+            fd[:, j] = (ends[0] - ends[1]) / (2 * h)
+        np.testing.assert_allclose(J.jacobian[k], fd, atol=1e-8)
