@@ -41,13 +41,13 @@ from numpy.typing import NDArray
 
 from tension_opt import CableRobot
 from tension_opt.robot.derivatives import cable_frames
-from tension_opt.robot.pulleys import pulley_exits
+from tension_opt.robot.pulleys import pulley_arrays, pulley_exits
 
 from .geometry import E_Z, CablePlanes, planes_along
 from .solve import solve_length
 
-__all__ = ["MAX_WRAP_STEPS", "WRAP_TOL", "PulleySag", "WheelFrames", "pulley_axes",
-           "pulley_cable_stiffness", "settle_wraps"]
+__all__ = ["MAX_WRAP_STEPS", "WRAP_TOL", "PulleySag", "WheelFrames", "pulley_cable_stiffness",
+           "settle_wraps"]
 
 FloatArray = NDArray[np.float64]
 
@@ -55,17 +55,6 @@ FloatArray = NDArray[np.float64]
 WRAP_TOL = 1e-13
 #: Steps of the fixed-point iteration before the cable is reported not converged.
 MAX_WRAP_STEPS = 60
-
-
-def pulley_axes(robot: CableRobot) -> tuple[NDArray[np.intp], FloatArray, FloatArray]:
-    """Indices (k,) of the cables with a pulley, their radii (k,) and unit swivel axes
-    (k, 3)."""
-    assert robot.pulleys is not None
-    idx = np.array([i for i, q in enumerate(robot.pulleys) if q is not None], dtype=np.intp)
-    chosen = [robot.pulleys[i] for i in idx]
-    axes = np.array([np.asarray(q.axis, dtype=float) for q in chosen])  # type: ignore[union-attr]
-    radii = np.array([q.radius for q in chosen])  # type: ignore[union-attr]
-    return idx, radii, axes
 
 
 @dataclass(frozen=True)
@@ -112,7 +101,8 @@ class WheelFrames:
     """
 
     def __init__(self, robot: CableRobot, poses: FloatArray) -> None:
-        self.idx, self.r, self.axes = pulley_axes(robot)
+        assert robot.pulleys is not None
+        self.idx, self.r, self.axes = pulley_arrays(robot.pulleys)
         self.m = robot.m
         self.geometry = robot.cable_geometry(poses)
         self.B = self.geometry.attachment_points[:, self.idx]
@@ -216,15 +206,16 @@ def _at(shape: tuple[int, ...], n: NDArray[np.intp], c: NDArray[np.intp],
 
 
 def pulley_cable_stiffness(robot: CableRobot, poses: FloatArray, tensions: FloatArray,
-                           EA: float) -> FloatArray:
+                           EA: float, lengths: FloatArray) -> FloatArray:
     """Stiffness of straight elastic cables over guide pulleys at their platform end,
     (N, m, 3, 3) (N/m): ``K = ((EA + T) / L) u u' + T P``, ``L`` the whole stretched
-    cable (arc and free span), ``P`` the derivative of the free span's direction by the
-    attachment point (:func:`tension_opt.robot.derivatives.cable_frames`: ``(I - u u')
-    / l`` less the wheel's swivel term); for a cable without a pulley, the same as
+    cables (arc and free span, ``lengths`` (N, m), m), ``P`` the derivative of the free
+    span's direction by the attachment point
+    (:func:`tension_opt.robot.derivatives.cable_frames`: ``(I - u u') / l`` less the
+    wheel's swivel term); for a cable without a pulley, the same as
     :func:`catenary.robot_stiffness.straight_cable_stiffness`."""
     frames = cable_frames(robot, poses)
-    u, L = frames.unit, robot.cable_geometry(poses).total_lengths
+    u = frames.unit
     uu = u[..., :, None] * u[..., None, :]
-    return ((EA + tensions) / L)[..., None, None] * uu + tensions[..., None, None] * (
+    return ((EA + tensions) / lengths)[..., None, None] * uu + tensions[..., None, None] * (
         frames.projector)

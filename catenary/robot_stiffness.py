@@ -355,7 +355,8 @@ def straight_state(robot: CableRobot, poses: FloatArray, tensions: ArrayLike | N
         status[np.isnan(T).any(axis=1)] = Status.NOT_RUN
     L, u = geometry.lengths, geometry.unit
     if robot.has_pulleys:
-        K, L = pulley_cable_stiffness(robot, poses, T, EA), geometry.total_lengths
+        L = geometry.total_lengths
+        K = pulley_cable_stiffness(robot, poses, T, EA, L)
     else:
         K = straight_cable_stiffness(u, L, T, EA)
     return CableState(T[..., None] * u, K, T, L * EA / (EA + T), status)

@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt.errors import InvalidInputError
 from tension_opt.kinds import PlanarBody, SpatialBody
 from tension_opt.robot.model import CableRobot
-from tension_opt.robot.pulleys import swivel_turn
+from tension_opt.robot.pulleys import pulley_arrays, swivel_turn
 
 __all__ = [
     "CableFrames",
@@ -109,12 +109,10 @@ def cable_frames(robot: CableRobot, poses: ArrayLike) -> CableFrames:
     eye = np.eye(3)
     projector = (eye - u[..., :, None] * u[..., None, :]) / geometry.lengths[..., None, None]
     if robot.pulleys is not None:
-        idx = [i for i, q in enumerate(robot.pulleys) if q is not None]
-        chosen = [q for q in robot.pulleys if q is not None]
-        radii = np.array([q.radius for q in chosen])
+        idx, radii, axes = pulley_arrays(robot.pulleys)
         assert geometry.wrapped is not None
-        normal, rate = swivel_turn(robot.anchors[idx], np.array([q.axis for q in chosen]),
-                                   radii, geometry.attachment_points[:, idx],
+        normal, rate = swivel_turn(robot.anchors[idx], axes, radii,
+                                   geometry.attachment_points[:, idx],
                                    geometry.wrapped[:, idx] / radii)
         turn = (rate / geometry.lengths[:, idx])[..., None, None]
         projector[:, idx] -= turn * normal[..., :, None] * normal[..., None, :]

@@ -39,7 +39,7 @@ from tension_opt.kernels.first_use import announce
 from tension_opt.kernels.launch import compiled_for
 from tension_opt.kinds import MotionPattern, get_kind
 from tension_opt.robot.geometry import CableGeometry, StraightForwardKinematicsResult
-from tension_opt.robot.pulleys import Pulley, check_pulleys, pulley_exits
+from tension_opt.robot.pulleys import Pulley, check_pulleys, pulley_arrays, pulley_exits
 from tension_opt.status import STATUS_DTYPE, Status
 
 RobotKind = Literal["point3", "planar_point2", "planar3", "spatial6"]
@@ -375,11 +375,12 @@ class CableRobot:
         """Free-span vectors and lengths (N, m, 3), (N, m) of cables over their
         pulleys, and the wrapped lengths (N, m) (zero without a pulley, NaN where a
         pulley has no exit point)."""
-        idx, anchors, axes, radii = self._pulley_arrays
+        assert self.pulleys is not None
+        idx, radii, axes = pulley_arrays(self.pulleys)
         every = len(idx) == self.m  # then whole arrays, no gathers and scatters
         at = slice(None) if every else idx
-        exits = pulley_exits(anchors, axes, radii, points if every else points[:, idx],
-                             swivel=False)
+        exits = pulley_exits(self.anchors[idx], axes, radii,
+                             points if every else points[:, idx], swivel=False)
         if not every:
             vectors, lengths = vectors.copy(), lengths.copy()
         vectors[:, at] = exits.exit_points - (points if every else points[:, idx])
@@ -387,15 +388,6 @@ class CableRobot:
         wrapped = np.zeros_like(lengths)
         wrapped[:, at] = radii * exits.wrap
         return vectors, lengths, wrapped
-
-    @property
-    def _pulley_arrays(self) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-        """Cables with a pulley (k,), their drawing points and axes (k, 3), radii (k,)."""
-        assert self.pulleys is not None
-        idx = np.array([i for i, q in enumerate(self.pulleys) if q is not None])
-        chosen = [q for q in self.pulleys if q is not None]
-        return (idx, self.anchors[idx], np.array([q.axis for q in chosen]),
-                np.array([q.radius for q in chosen]))
 
     def cable_wrenches(self, forces: NDArray, arms: NDArray) -> NDArray:
         """Wrench of each cable force on the platform, shape (N, m, n).

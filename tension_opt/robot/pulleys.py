@@ -33,8 +33,8 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt.checks import as_finite, check_positive, is_number
 from tension_opt.errors import InvalidInputError
 
-__all__ = ["Pulley", "PulleyExits", "check_pulleys", "pulley_exits", "swivel_basis",
-           "swivel_turn"]
+__all__ = ["Pulley", "PulleyExits", "check_pulleys", "pulley_arrays", "pulley_exits",
+           "swivel_basis", "swivel_turn"]
 
 
 @dataclass(frozen=True)
@@ -99,6 +99,16 @@ def check_pulleys(pulleys: object, m: int) -> tuple[Pulley | None, ...] | None:
                                     f"{type(p).__name__}")
     out = tuple(pulleys)
     return out if any(p is not None for p in out) else None
+
+
+def pulley_arrays(pulleys: Sequence[Pulley | None]) -> tuple[NDArray, NDArray, NDArray]:
+    """The cables of a robot's ``pulleys`` that have one, as arrays: their indices (k,),
+    radii (k,) (m) and unit swivel axes (k, 3)."""
+    idx = np.array([i for i, q in enumerate(pulleys) if q is not None], dtype=np.intp)
+    chosen = [q for q in pulleys if q is not None]
+    radii = np.array([q.radius for q in chosen], dtype=float)
+    axes = np.array([np.asarray(q.axis, dtype=float) for q in chosen]).reshape(-1, 3)
+    return idx, radii, axes
 
 
 def swivel_basis(axis: NDArray) -> tuple[NDArray, NDArray]:
