@@ -52,6 +52,7 @@ __all__ = [
     "measures",
     "measures_reference",
     "primal_residual_of",
+    "refit_poses",
 ]
 
 
@@ -336,8 +337,10 @@ def _refit(batch: ScaledBatch, x: NDArray, poses: NDArray, mult: Multipliers) ->
                                       0.0)])
         free = lo < hi  # a variable pinned to 0 is left out (lsq_linear needs lo < hi)
         try:
+            # KKT conditions to rounding (scipy's default stops at 1e-10): the compiled
+            # refit (tension_opt.kernels.refit) solves the same problem exactly.
             fit = lsq_linear(M[:, free], rhs, bounds=(lo[free], hi[free]), method="bvls",
-                             max_iter=50 * M.shape[1])
+                             max_iter=50 * M.shape[1], tol=1e-15)
         except (ValueError, np.linalg.LinAlgError):
             continue
         u = np.zeros(n + g + k)
@@ -355,6 +358,24 @@ def _refit(batch: ScaledBatch, x: NDArray, poses: NDArray, mult: Multipliers) ->
     new = measures(sub, x[idx], candidate)
     better = np.maximum(new[1], new[2]) < np.maximum(old[1], old[2])
     mult.put(idx[better], candidate.subset(better))
+
+
+def _uncertified(primal: NDArray, dual: NDArray, gap: NDArray, target: float) -> NDArray:
+    """Poses whose point is primal feasible but whose multipliers do not certify it."""
+    return (primal <= target) & ~((dual <= target) & (gap <= target))
+
+
+def refit_poses(form: StandardForm, tensions: NDArray, target: float = DEFAULT_TARGET
+                ) -> NDArray:
+    """Which poses of tensions (N, m) on ``form`` the cheap dual solve leaves to the
+    sign-constrained refit of :func:`certify` (without multipliers given), (N,) bool.
+    Their multipliers are a bounded least-squares fit, which the numpy path and the
+    compiled kernels (:mod:`tension_opt.kernels.refit`) solve to the fit's
+    conditioning, not to the last bits."""
+    batch = scaled_batch(form)
+    x = batch.lift(tensions)
+    return np.asarray(_uncertified(*measures(batch, x, estimate_multipliers(batch, x)),
+                                   target))
 
 
 def certify(batch: ScaledBatch, x: NDArray, multipliers: Multipliers | None = None,
@@ -400,7 +421,7 @@ def certify(batch: ScaledBatch, x: NDArray, multipliers: Multipliers | None = No
             measure[idx[better]] = new[better]
     # The vectorised fit cannot see cones: a pose it leaves uncertified, though its point
     # is primal feasible, gets a sign-constrained fit of its own.
-    stuck = np.flatnonzero((primal <= target) & ~((dual <= target) & (gap <= target)))
+    stuck = np.flatnonzero(_uncertified(primal, dual, gap, target))
     if len(stuck):
         _refit(batch, x, stuck, mult)
         primal, dual, gap = measures(batch, x, mult)

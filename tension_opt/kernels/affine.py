@@ -13,7 +13,7 @@ import math
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["COND_LIMIT", "null_space", "null_space_work"]
+__all__ = ["COND_LIMIT", "column_norm", "null_space", "null_space_work", "reflect"]
 
 #: Poses whose (Frobenius) condition estimate of ``A`` reaches this are left to the
 #: numpy path, whose singular values decide the rank exactly (it bounds the 2-norm
@@ -25,7 +25,39 @@ COND_LIMIT = 1e8
 @njit(cache=True)
 def null_space_work(m: int, n: int) -> int:
     """Floats of work space :func:`null_space` needs for ``A`` of shape (n, m)."""
-    return 2 * m * n + m * m + n + n * n
+    return m * n + 3 * n + n * n
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def column_norm(W: NDArray, o: int, k: int, length: int) -> float:
+    """Norm of entries ``k..length-1`` of the column stored flat from ``W[o]``."""
+    norm = 0.0
+    for i in range(k, length):
+        norm += W[o + i] * W[o + i]
+    return math.sqrt(norm)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def reflect(W: NDArray, length: int, k: int, count: int, norm: float) -> tuple[float, float]:
+    """One Householder step on ``count`` columns stored flat in ``W``, each ``length``
+    long (column j from ``W[j * length]``): the reflector of column k (of entries ``k..``,
+    of norm ``norm > 0``) is written over those entries and applied to the columns after
+    it. Returns ``(alpha, beta)``: the new diagonal entry and the reflector's factor
+    (``I - beta v v^T``)."""
+    o = k * length
+    top = W[o + k]
+    alpha = -norm if top >= 0.0 else norm
+    beta = 1.0 / (norm * (norm + abs(top)))  # 2 / |v|^2, v = x - alpha e_k
+    W[o + k] = top - alpha
+    for j in range(k + 1, count):
+        oj = j * length
+        dot = 0.0
+        for i in range(k, length):
+            dot += W[o + i] * W[oj + i]
+        dot *= beta
+        for i in range(k, length):
+            W[oj + i] -= dot * W[o + i]
+    return alpha, beta
 
 
 @njit(cache=True, error_model="numpy")
@@ -34,96 +66,83 @@ def null_space(A: NDArray, b: NDArray, T0: NDArray, Z: NDArray, work: NDArray) -
     (m, m - n) of the null space of ``A`` (n, m), written in place.
 
     Householder QR of ``A^T = Q R``: ``Z`` is the last ``m - n`` columns of ``Q`` and
-    ``T0 = Q_1 R^{-T} b``. Returns False (nothing usable written) where ``A`` is
-    singular or its condition estimate ``||R||_F ||R^-1||_F`` reaches
+    ``T0 = Q_1 R^{-T} b``, each found by applying the reflectors to ``m - n + 1``
+    vectors (``Q`` itself is never formed). Returns False (nothing usable written)
+    where ``A`` is singular or its condition estimate ``||R||_F ||R^-1||_F`` reaches
     :data:`COND_LIMIT`. ``work`` holds at least :func:`null_space_work` floats; its
-    matrices are indexed flat, row by row (a reshaped view costs more than the
-    arithmetic at these sizes).
+    matrices are indexed flat (a reshaped view costs more than the arithmetic at these
+    sizes).
     """
     n, m = A.shape
-    M = work[:m * n]  # A^T (m, n), reduced to R in its top rows
-    V = work[m * n:2 * m * n]  # Householder vectors (n, m)
-    Q = work[2 * m * n:2 * m * n + m * m]  # (m, m)
-    y = work[2 * m * n + m * m:2 * m * n + m * m + n]
-    for i in range(m):
-        for j in range(n):
-            M[i * n + j] = A[j, i]
+    r = m - n
+    # Row j of W: column j of A^T, contiguous. Reduced in place: its entries j.. become
+    # reflector j, its entries before j the column j of R above the diagonal.
+    W = work[:m * n]
+    diag = work[m * n:m * n + n]  # R's diagonal
+    betas = work[m * n + n:m * n + 2 * n]  # reflector j is I - betas[j] v v^T
+    y = work[m * n + 2 * n:m * n + 3 * n]
+    for j in range(n):
+        for i in range(m):
+            W[j * m + i] = A[j, i]
     for k in range(n):
-        norm = 0.0
-        for i in range(k, m):
-            norm += M[i * n + k] * M[i * n + k]
-        norm = math.sqrt(norm)
+        norm = column_norm(W, k * m, k, m)
         if norm == 0.0 or not math.isfinite(norm):
             return False
-        alpha = -norm if M[k * n + k] >= 0.0 else norm
-        vk = k * m
-        for i in range(k, m):
-            V[vk + i] = M[i * n + k]
-        V[vk + k] -= alpha
-        vnorm = 0.0
-        for i in range(k, m):
-            vnorm += V[vk + i] * V[vk + i]
-        vnorm = math.sqrt(vnorm)
-        for i in range(k, m):
-            V[vk + i] /= vnorm
-        for j in range(k, n):
-            dot = 0.0
-            for i in range(k, m):
-                dot += V[vk + i] * M[i * n + j]
-            for i in range(k, m):
-                M[i * n + j] -= 2.0 * dot * V[vk + i]
-    for i in range(m):
-        for j in range(m):
-            Q[i * m + j] = 1.0 if i == j else 0.0
-    for k in range(n - 1, -1, -1):
-        vk = k * m
-        for j in range(m):
-            dot = 0.0
-            for i in range(k, m):
-                dot += V[vk + i] * Q[i * m + j]
-            for i in range(k, m):
-                Q[i * m + j] -= 2.0 * dot * V[vk + i]
-    if not _well_conditioned(M, n, work[2 * m * n + m * m + n:]):
+        diag[k], betas[k] = reflect(W, m, k, n, norm)
+    if not _well_conditioned(W, diag, n, m, work[m * n + 3 * n:]):
         return False
-    # R^T y = b (forward substitution), then T0 = Q_1 y.
+    # R^T y = b (forward substitution), then T0 = Q [y; 0] and Z = Q [0; I].
     for i in range(n):
         s = b[i]
         for j in range(i):
-            s -= M[j * n + i] * y[j]
-        y[i] = s / M[i * n + i]
+            s -= W[i * m + j] * y[j]
+        y[i] = s / diag[i]
     for i in range(m):
-        s = 0.0
-        for j in range(n):
-            s += Q[i * m + j] * y[j]
-        T0[i] = s
-        for j in range(m - n):
-            Z[i, j] = Q[i * m + n + j]
+        T0[i] = y[i] if i < n else 0.0
+        for j in range(r):
+            Z[i, j] = 1.0 if i == n + j else 0.0
+    for k in range(n - 1, -1, -1):
+        o = k * m
+        beta = betas[k]
+        dot = 0.0
+        for i in range(k, m):
+            dot += W[o + i] * T0[i]
+        dot *= beta
+        for i in range(k, m):
+            T0[i] -= dot * W[o + i]
+        for j in range(r):
+            dot = 0.0
+            for i in range(k, m):
+                dot += W[o + i] * Z[i, j]
+            dot *= beta
+            for i in range(k, m):
+                Z[i, j] -= dot * W[o + i]
     return True
 
 
 @njit(cache=True, error_model="numpy")
-def _well_conditioned(M: NDArray, n: int, work: NDArray) -> bool:
-    """Whether the triangle ``R`` (top n x n of ``M``, flat with rows of n) has
-    ``||R||_F ||R^-1||_F`` below :data:`COND_LIMIT` (an upper bound of its 2-norm
-    condition number); ``work`` holds ``n * n`` floats."""
+def _well_conditioned(W: NDArray, diag: NDArray, n: int, m: int, work: NDArray) -> bool:
+    """Whether the triangle ``R`` (diagonal ``diag``, ``R[i, j] = W[j * m + i]`` above
+    it) has ``||R||_F ||R^-1||_F`` below :data:`COND_LIMIT` (an upper bound of its
+    2-norm condition number); ``work`` holds ``n * n`` floats."""
     norm_r = 0.0
-    for i in range(n):
-        for j in range(i, n):
-            norm_r += M[i * n + j] * M[i * n + j]
-        if M[i * n + i] == 0.0:
+    for j in range(n):
+        if diag[j] == 0.0:
             return False
-    inv = work  # R^-1 (n, n) flat, upper triangular, column by column
+        norm_r += diag[j] * diag[j]
+        for i in range(j):
+            norm_r += W[j * m + i] * W[j * m + i]
+    inv = work  # R^-1 (n, n) flat, upper triangular, column j in row j
     norm_inv = 0.0
     for j in range(n):
-        inv[j * n + j] = 1.0 / M[j * n + j]
-        norm_inv += inv[j * n + j] * inv[j * n + j]
+        oj = j * n
+        inv[oj + j] = 1.0 / diag[j]
+        norm_inv += inv[oj + j] * inv[oj + j]
         for i in range(j - 1, -1, -1):
             s = 0.0
             for k in range(i + 1, j + 1):
-                s += M[i * n + k] * inv[k * n + j]
-            inv[i * n + j] = -s / M[i * n + i]
-            norm_inv += inv[i * n + j] * inv[i * n + j]
+                s += W[k * m + i] * inv[oj + k]
+            inv[oj + i] = -s / diag[i]
+            norm_inv += inv[oj + i] * inv[oj + i]
     cond = math.sqrt(norm_r) * math.sqrt(norm_inv)
     return math.isfinite(cond) and cond < COND_LIMIT
-
-

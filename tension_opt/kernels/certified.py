@@ -17,11 +17,13 @@ that step run (:func:`~tension_opt.kernels.geometry.geometry_into`,
 :func:`~tension_opt.kernels.certificate.pose_estimate`,
 :func:`~tension_opt.kernels.certificate.pose_measures`), so the answers agree to rounding.
 
-A pose the kernel does not settle gets a code for the caller to solve it by that path:
-:data:`CODE_FALLBACK` (a pose the closed-form kernel hands to the numpy path, or whose
-certificate needs the sign-constrained refit of :func:`tension_opt.certify.certificate.certify`)
-or :data:`CODE_GEOMETRY` (a cable on its drawing point, lengths or wrench beyond the
-float range: the path raises the package's error for these).
+A pose whose cheap dual solve leaves it uncertified though its tensions are primal
+feasible gets the sign-constrained refit of :func:`tension_opt.certify.certificate.certify`
+here too (:func:`tension_opt.kernels.refit.pose_refit`). A pose the kernel does not
+settle gets a code for the caller to solve it by that path: :data:`CODE_FALLBACK` (a
+pose the closed-form kernel hands to the numpy path, or whose refit is singular) or
+:data:`CODE_GEOMETRY` (a cable on its drawing point, lengths or wrench beyond the float
+range: the path raises the package's error for these).
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ from tension_opt.kernels.closed_form import (
     work_size,
 )
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
+from tension_opt.kernels.refit import pose_refit, refit_work_size
 from tension_opt.kernels.scaling import pose_scaled, safe_norm_of
 from tension_opt.status import STATUS_TABLE
 from tension_opt.tolerances import FEASIBILITY_TOL, RIDGE, ROW_FLOOR, UB_SHARE
@@ -204,7 +207,7 @@ def certified_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray
             np.empty((n, k)), np.empty(n), np.empty((g, k)), np.empty(g), np.empty(k),
             np.empty(k), np.empty(k), np.empty(n), np.empty(g), np.empty(k),
             np.empty((k, n + g)), np.empty((n + g, n + g)), np.empty(n + g), np.empty(k),
-            np.empty(k), np.empty(k))
+            np.empty(k), np.empty(k), np.empty(refit_work_size(n, g, k)))
     views = problem_views(data)
     rows_out, flags_out = (T, y, mu, z), (codes, unique)
     measured = (objective, residual, violation, infeasibility, primal, dual, gap)
@@ -247,7 +250,7 @@ def _poses(data: NDArray, views: tuple[NDArray, ...], poses: NDArray, wrenches: 
     codes, unique = flags_out
     objective, residual, violation, infeasibility, primal, dual, gap = measured
     pose, wrench, A, b, e, Tw, rest, rows, P, cs, Aeq, beq, G, h, lbs, ubs, x, yw, muw, \
-        zw, B, H, u, grad, shrink, station = work
+        zw, B, H, u, grad, shrink, station, refit = work
     anchors, attachments, com, q, c, v, lb, ub, w, r = views
     kind, m, n = int(data[0]), int(data[1]), int(data[2])
     o = HEADER + 12 * m
@@ -311,8 +314,13 @@ def _poses(data: NDArray, views: tuple[NDArray, ...], poses: NDArray, wrenches: 
                                              zw, station)
         met = first <= target and second <= target and third <= target
         if first <= target and not met:  # the sign-constrained refit of certify
-            codes[p], left = CODE_FALLBACK, left + 1
-            continue
+            first, second, third, kept = pose_refit(P, cs, Aeq, beq, G, h, lbs, ubs, x, yw,
+                                                    muw, zw, (first, second, third),
+                                                    station, refit)
+            if kept < 0:  # a singular fit: the numpy path's
+                codes[p], left = CODE_FALLBACK, left + 1
+                continue
+            met = first <= target and second <= target and third <= target
         _in_cones(lbs, ubs, muw, zw)
         _put(T, y, mu, z, p, Tw, yw, muw, zw, True)
         tol = tol_factor * pose_scales(A, b, lb)[1]

