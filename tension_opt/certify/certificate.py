@@ -301,6 +301,30 @@ def estimate_multipliers_reference(batch: ScaledBatch, x: NDArray) -> Multiplier
     return out
 
 
+def _refit_compiled(batch: ScaledBatch, x: NDArray, poses: NDArray, mult: Multipliers,
+                    measured: tuple[NDArray, NDArray, NDArray]) -> NDArray:
+    """:func:`_refit` by the compiled kernel (:func:`tension_opt.kernels.refit.batch_refit`,
+    the same fit) for a batch the compiled kernels take
+    (:func:`~tension_opt.kernels.launch.compiled_for`); returns the poses left to
+    :func:`_refit` (all of them for a smaller batch, those whose fit is singular)."""
+    from tension_opt.kernels.launch import compiled_for
+
+    if not compiled_for(batch.N):
+        return poses
+    from tension_opt.kernels.arrays import writable
+    from tension_opt.kernels.refit import batch_refit
+
+    sub = batch.subset(poses)
+    fit = Multipliers(*(writable(a[poses]) for a in (mult.y, mult.mu, mult.z)))
+    args = (writable(a) for a in (sub.P, sub.c, sub.Aeq, sub.beq, sub.G, sub.h, sub.lb,
+                                  sub.ub, x[poses]))
+    measures_now = writable(np.stack([m[poses] for m in measured], axis=1))
+    kept = batch_refit(*args, fit.y, fit.mu, fit.z, measures_now)
+    done = kept >= 0
+    mult.put(poses[done], fit.subset(done))
+    return poses[~done]
+
+
 def _refit(batch: ScaledBatch, x: NDArray, poses: NDArray, mult: Multipliers) -> None:
     """Sign-constrained dual fits of single poses (scipy's bounded least squares), where
     the vectorised fit left a multiplier in the wrong cone; kept where they do better."""
@@ -423,7 +447,9 @@ def certify(batch: ScaledBatch, x: NDArray, multipliers: Multipliers | None = No
     # is primal feasible, gets a sign-constrained fit of its own.
     stuck = np.flatnonzero(_uncertified(primal, dual, gap, target))
     if len(stuck):
-        _refit(batch, x, stuck, mult)
+        left = _refit_compiled(batch, x, stuck, mult, (primal, dual, gap))
+        if len(left):
+            _refit(batch, x, left, mult)
         primal, dual, gap = measures(batch, x, mult)
     mu, z = _cones(batch, mult)
     return Certificate(primal, dual, gap, float(target), Multipliers(mult.y, mu, z))

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from tension_opt.kernels.affine import column_norm, reflect
 from tension_opt.kernels.certificate import nan_max, pose_measures
 
-__all__ = ["bounded_lstsq", "pose_refit", "refit_work_size"]
+__all__ = ["batch_refit", "bounded_lstsq", "pose_refit", "refit_work_size"]
 
 #: Active-set steps per variable (scipy's ``lsq_linear`` default for ``"bvls"``: 50 per
 #: variable, as the reference passes it).
@@ -255,3 +255,25 @@ def pose_refit(P: NDArray, c: NDArray, Aeq: NDArray, beq: NDArray, G: NDArray,
     for i in range(k):
         z[i] = fit_z[i]
     return first, second, third, 1
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def batch_refit(P: NDArray, c: NDArray, Aeq: NDArray, beq: NDArray, G: NDArray,
+                h: NDArray, lb: NDArray, ub: NDArray, x: NDArray, y: NDArray, mu: NDArray,
+                z: NDArray, measured: NDArray) -> NDArray:
+    """:func:`pose_refit` of every pose of a scaled batch (the arrays of
+    :func:`tension_opt.kernels.certificate.batch_measures`, all writable): ``y``,
+    ``mu``, ``z`` refitted in place where the fit measures better than ``measured``
+    (N, 3), whose rows become the kept multipliers' measures. Returns each pose's
+    :func:`pose_refit` verdict (N,): 1 kept, 0 not, -1 singular."""
+    N, n, k = Aeq.shape
+    g = G.shape[1]
+    work = np.empty(refit_work_size(n, g, k))
+    station = np.empty(k)
+    kept = np.empty(N, dtype=np.int64)
+    for p in range(N):
+        first, second, third, kept[p] = pose_refit(
+            P[p], c[p], Aeq[p], beq[p], G[p], h[p], lb[p], ub[p], x[p], y[p], mu[p], z[p],
+            (measured[p, 0], measured[p, 1], measured[p, 2]), station, work)
+        measured[p, 0], measured[p, 1], measured[p, 2] = first, second, third
+    return kept

@@ -132,3 +132,24 @@ def test_the_2d_qp_skips_only_crossings_that_cannot_win(seed: int, m: int) -> No
     assert got[2] == want[2]
     if want[2]:
         np.testing.assert_allclose(got[:2], want[:2], rtol=1e-12, atol=1e-12)
+
+
+def test_certify_refits_a_compiled_size_batch_as_scipy_does(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The batch's refit by the kernel, and by scipy where the batch is too small for
+    the kernels: the same multipliers and verdicts."""
+    from tension_opt.kernels import launch
+
+    robot = presets.cogiro()
+    poses = select_poses(robot, 600, False, 1)
+    batch, x, _mult, _measured, stuck = _stuck(robot, poses, "centered")
+    assert len(stuck) > 0
+    compiled = cert.certify(batch, x)
+    monkeypatch.setattr(launch, "COMPILED_MIN", 10**9)
+    reference = cert.certify(batch, x)
+    np.testing.assert_array_equal(compiled.certified, reference.certified)
+    for name in ("y", "z"):
+        a = getattr(compiled.multipliers, name)[stuck]
+        b = getattr(reference.multipliers, name)[stuck]
+        top = np.maximum(1.0, np.abs(b).max(axis=1, keepdims=True))
+        assert (np.abs(a - b) <= FIT_REL * top).all(), name
