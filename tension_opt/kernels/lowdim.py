@@ -215,6 +215,25 @@ def _feasible(z0: float, z1: float, normals: NDArray, limits: NDArray) -> bool:
     return True
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _within(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray, scale: float, z0: float,
+            z1: float) -> bool:
+    """:func:`_feasible` of the point against the lines of :func:`_lines` with the
+    limits of :func:`_slacks`, the same arithmetic, without writing the lines."""
+    inside = math.isfinite(z0) and math.isfinite(z1)
+    for i in range(T0.size):
+        a0, a1 = -Z[i, 0], -Z[i, 1]
+        slack = FEAS_TOL * scale * (1.0 + math.sqrt(a0 * a0 + a1 * a1))
+        low, high = T0[i] - lb[i], ub[i] - T0[i]
+        if math.isfinite(low) and not a0 * z0 + a1 * z1 <= low + slack:
+            inside = False
+        if math.isfinite(high) and not Z[i, 0] * z0 + Z[i, 1] * z1 <= high + slack:
+            inside = False
+    if (T0.size | Z.size | lb.size | ub.size) < 0:  # never: read last (tension_opt.kernels)
+        inside = False
+    return inside
+
+
 @njit(cache=True, error_model="numpy")
 def qp_2d(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDArray,
           scale: float, work: NDArray) -> tuple[float, float, bool]:
@@ -231,11 +250,11 @@ def qp_2d(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
     det = h00 * h11 - h01 * h01
     i00, i01, i11 = h11 / det, -h01 / det, h00 / det
     f0, f1 = -(i00 * g0 + i01 * g1), -(i01 * g0 + i11 * g1)
+    if _within(T0, Z, lb, ub, scale, f0, f1):  # the global minimum: no candidate beats it
+        return f0, f1, True
     normals, beta, present = _lines(T0, Z, lb, ub, work)
     L = beta.size
     limits = _slacks(normals, beta, present, scale, work[4 * L:5 * L])
-    if _feasible(f0, f1, normals, limits):  # the global minimum: no candidate beats it
-        return f0, f1, True
     # The candidates of the reference in its order (the minimum on each line, then the
     # lines' crossings), the first feasible one of least value kept. A crossing of lines
     # i and j is worth at least the larger of the two lines' minima, so one whose bound
