@@ -316,10 +316,11 @@ def _refit_compiled(batch: ScaledBatch, x: NDArray, poses: NDArray, mult: Multip
 
     sub = batch.subset(poses)
     fit = Multipliers(*(writable(a[poses]) for a in (mult.y, mult.mu, mult.z)))
-    args = (writable(a) for a in (sub.P, sub.c, sub.Aeq, sub.beq, sub.G, sub.h, sub.lb,
-                                  sub.ub, x[poses]))
+    P, c, Aeq, beq, G, h, lb, ub, xs = (writable(a) for a in (
+        sub.P, sub.c, sub.Aeq, sub.beq, sub.G, sub.h, sub.lb, sub.ub, x[poses]))
     measures_now = writable(np.stack([m[poses] for m in measured], axis=1))
-    kept = batch_refit(*args, fit.y, fit.mu, fit.z, measures_now)
+    kept = np.asarray(batch_refit(P, c, Aeq, beq, G, h, lb, ub, xs, fit.y, fit.mu, fit.z,
+                                  measures_now))
     done = kept >= 0
     mult.put(poses[done], fit.subset(done))
     return poses[~done]

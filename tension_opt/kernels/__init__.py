@@ -48,6 +48,9 @@ itself, outside the inlined steps, and takes its arrays as arguments.
   :func:`tension_opt.certify.scaling.scaling_reference`,
   :func:`tension_opt.certify.certificate.measures_reference`,
   :func:`tension_opt.certify.certificate.estimate_multipliers_reference`);
+- :mod:`tension_opt.kernels.refit`: the certificate's sign-constrained refit of a
+  pose's multipliers (a bounded least-squares fit; numpy reference: scipy's in
+  :func:`tension_opt.certify.certificate.certify`);
 - :mod:`tension_opt.kernels.certified`: the closed form of independent poses with its
   diagnostics and certificate, pose by pose, from the one-pose functions of the
   modules above (the certified path of large batches, :mod:`tension_opt.distribution.certified`);
