@@ -59,8 +59,9 @@ from tension_opt.workspace.interference import (
 from tension_opt.workspace.interference import cable_clearance as straight_clearance
 from tension_opt.workspace.interference_free import InterferenceResult, interference_result
 
-from .elastic import axial_compliance, evaluate
+from .curves import CatenaryCurves
 from .geometry import E_Z, CablePlanes, cable_data, cable_planes, check_robot
+from .interference_compiled import pack_curves, solve_pairs, use_compiled
 from .inverse import inverse_kinematics
 from .pulleys import settle_wraps
 from .workspace import sag_workspace
@@ -84,108 +85,6 @@ SAMPLES = 33
 # (bounds the memory of the piece-by-piece comparison).
 _STEPS = 30
 _CELLS_PER_BLOCK = 400_000
-
-
-@dataclass(frozen=True)
-class CatenaryCurves:
-    """Elastic catenaries in space, batch shape ``S`` (see the module notes).
-
-    Attributes
-    ----------
-    origin : ndarray, shape S + (3,)
-        Attachment point ``A`` (m), base frame.
-    e_h : ndarray, shape S + (3,)
-        Horizontal unit vector of the cable's plane, towards the drawing point.
-    H, V_A, L0 : ndarray, shape S
-        Horizontal tension (N), vertical force at ``A`` (N, upward along the cable) and
-        unstretched length (m).
-    w : float
-        Weight per length (N/m).
-    EA : float
-        Axial stiffness (N), ``inf`` for an inextensible cable.
-    closure : ndarray, shape S + (3,)
-        Drawing point minus the curve's end ``r(L0)`` without closure (m), spread along
-        the cable in proportion to ``s``.
-    """
-
-    origin: FloatArray
-    e_h: FloatArray
-    H: FloatArray
-    V_A: FloatArray
-    L0: FloatArray
-    w: float
-    EA: float
-    closure: FloatArray
-
-    def _spans(self, s: FloatArray) -> tuple[FloatArray, FloatArray]:
-        H, V = self.H[..., None], self.V_A[..., None] + self.w * s
-        with np.errstate(all="ignore"):
-            x, z, *_ = evaluate(
-                H,
-                V,
-                np.where(s > 0, s, 1.0),
-                self.w,
-                axial_compliance(np.asarray(self.EA, dtype=float)),
-                jacobian=False,
-            )
-        return np.where(s > 0, x, 0.0), np.where(s > 0, z, 0.0)
-
-    def points(self, s: ArrayLike, closed: bool = True) -> FloatArray:
-        """Points at arc parameters ``s`` (m), shape S + (k,) -> S + (k, 3) (m)."""
-        s = np.asarray(s, dtype=float)
-        x, z = self._spans(s)
-        p = self.origin[..., None, :] + x[..., None] * self.e_h[..., None, :] + z[..., None] * E_Z
-        if closed:
-            with np.errstate(all="ignore"):
-                share = np.where(self.L0[..., None] > 0, s / self.L0[..., None], 0.0)
-            p = p + share[..., None] * self.closure[..., None, :]
-        return np.asarray(p)
-
-    def tangents(self, s: ArrayLike) -> FloatArray:
-        """Derivatives ``dr/ds`` at arc parameters ``s``, shape S + (k,) -> S + (k, 3)."""
-        s = np.asarray(s, dtype=float)
-        H, V = self.H[..., None], self.V_A[..., None] + self.w * s
-        T = np.hypot(H, V)
-        with np.errstate(all="ignore"):
-            stretch = 1.0 + T / self.EA
-            ch = np.where(T > 0, stretch * H / T, 0.0)
-            cv = np.where(T > 0, stretch * V / T, 1.0)
-            lin = np.where(self.L0[..., None] > 0, 1.0 / self.L0[..., None], 0.0)
-        return np.asarray(
-            ch[..., None] * self.e_h[..., None, :]
-            + cv[..., None] * E_Z
-            + lin[..., None] * self.closure[..., None, :]
-        )
-
-    def bounds(self) -> tuple[FloatArray, FloatArray]:
-        """Lipschitz constant ``lam`` (largest ``|r'|``) and curvature bound ``K``
-        (largest ``|r''|``, 1/m), shape S each."""
-        V_B = self.V_A + self.w * self.L0
-        T_max = np.maximum(np.hypot(self.H, self.V_A), np.hypot(self.H, V_B))
-        crosses = (self.V_A < 0) & (V_B > 0)
-        V_min = np.where(crosses, 0.0, np.minimum(np.abs(self.V_A), np.abs(V_B)))
-        with np.errstate(all="ignore"):
-            stretch = 1.0 + T_max / self.EA
-            lam = stretch + np.where(
-                self.L0 > 0, np.linalg.norm(self.closure, axis=-1) / self.L0, 0.0
-            )
-            T2 = self.H**2 + V_min**2
-            bend = np.where(self.H > 0, self.w * self.H / T2, np.where(V_min > 0, 0.0, np.inf))
-            K = self.w / self.EA + stretch * np.where(self.w > 0, bend, 0.0)
-        return lam, K
-
-    def take(self, index: Any) -> CatenaryCurves:
-        """The curves at ``index`` of the batch."""
-        return CatenaryCurves(
-            self.origin[index],
-            self.e_h[index],
-            self.H[index],
-            self.V_A[index],
-            self.L0[index],
-            self.w,
-            self.EA,
-            self.closure[index],
-        )
 
 
 @dataclass(frozen=True)
@@ -325,6 +224,7 @@ def curve_distance(
     range_a: ArrayLike | None = None,
     range_b: ArrayLike | None = None,
     samples: int = SAMPLES,
+    compiled: bool | None = None,
 ) -> CurveDistance:
     """Certified smallest distance between two batches of catenaries (module notes).
 
@@ -338,6 +238,10 @@ def curve_distance(
     samples : int
         Samples along each curve for the bracket and the certificate, >= 2; the lower
         bound tightens as ``1 / samples^2``.
+    compiled : bool, optional
+        The compiled kernel (:mod:`catenary.interference_kernels`, the same steps pair
+        by pair); by default for :data:`tension_opt.kernels.launch.COMPILED_MIN` pairs
+        or more. False: the numpy reference.
 
     Returns
     -------
@@ -356,27 +260,41 @@ def curve_distance(
     full_b = np.stack([np.zeros(shape), b.L0], axis=-1)
     ra = (full_a if range_a is None else np.broadcast_to(range_a, (*shape, 2))).reshape(-1, 2)
     rb = (full_b if range_b is None else np.broadcast_to(range_b, (*shape, 2))).reshape(-1, 2)
-    fa, fb = a.take(np.s_[...]), b.take(np.s_[...])
-    fa = CatenaryCurves(
-        fa.origin.reshape(-1, 3),
-        fa.e_h.reshape(-1, 3),
-        fa.H.ravel(),
-        fa.V_A.ravel(),
-        fa.L0.ravel(),
-        a.w,
-        a.EA,
-        fa.closure.reshape(-1, 3),
+    fa, fb = _flat(a), _flat(b)
+    S = fa.H.size
+    if use_compiled(S, compiled):
+        packed = np.concatenate([pack_curves(fa), pack_curves(fb)])
+        pairs = np.stack([np.arange(S), S + np.arange(S)], axis=1)
+        out = _pairs(packed, pairs, np.concatenate([ra, rb], axis=1), n, _flat_pair(fa, fb))
+    else:
+        out = _numpy_pairs(fa, fb, ra, rb, n)
+    d, lower, s, t, pa, pb = out
+    return CurveDistance(
+        d.reshape(shape),
+        lower.reshape(shape),
+        s.reshape(shape),
+        t.reshape(shape),
+        pa.reshape(*shape, 3),
+        pb.reshape(*shape, 3),
     )
-    fb = CatenaryCurves(
-        fb.origin.reshape(-1, 3),
-        fb.e_h.reshape(-1, 3),
-        fb.H.ravel(),
-        fb.V_A.ravel(),
-        fb.L0.ravel(),
-        b.w,
-        b.EA,
-        fb.closure.reshape(-1, 3),
-    )
+
+
+def _flat(c: CatenaryCurves) -> CatenaryCurves:
+    """Curves of any batch shape as a flat batch."""
+    f = c.take(np.s_[...])
+    return CatenaryCurves(f.origin.reshape(-1, 3), f.e_h.reshape(-1, 3), f.H.ravel(),
+                          f.V_A.ravel(), f.L0.ravel(), c.w, c.EA, f.closure.reshape(-1, 3))
+
+
+def _flat_pair(fa: CatenaryCurves, fb: CatenaryCurves) -> Any:
+    """The curves of pair ``p`` of two flat batches (for the pairs the kernel leaves)."""
+    return lambda idx: (fa.take(idx), fb.take(idx))
+
+
+def _numpy_pairs(fa: CatenaryCurves, fb: CatenaryCurves, ra: FloatArray, rb: FloatArray,
+                 n: int) -> list[FloatArray]:
+    """The numpy reference on flat batches: distance, lower bound, s, t (S,) and the
+    two points (S, 3)."""
     S = fa.H.size
     out = [np.full(S, np.nan) for _ in range(4)] + [np.full((S, 3), np.nan) for _ in range(2)]
     block = max(1, _CELLS_PER_BLOCK // (n - 1) ** 2)
@@ -389,15 +307,24 @@ def curve_distance(
         d, s, t, pa, pb = _refine(ca, cb, ra[sl], rb[sl], s0, t0, ha, hb)
         for arr, val in zip(out, (d, np.minimum(lower, d), s, t, pa, pb), strict=True):
             arr[sl] = val
-    d, lower, s, t, pa, pb = out
-    return CurveDistance(
-        d.reshape(shape),
-        lower.reshape(shape),
-        s.reshape(shape),
-        t.reshape(shape),
-        pa.reshape(*shape, 3),
-        pb.reshape(*shape, 3),
-    )
+    return out
+
+
+def _pairs(packed: FloatArray, pairs: NDArray, ranges: FloatArray, n: int,
+           curves_of: Any) -> list[FloatArray]:
+    """The compiled kernel on ``pairs`` (S, 2) of rows of ``packed`` with their
+    intervals (S, 4), in :func:`_numpy_pairs`' layout; ``curves_of(index)`` gives the
+    two flat batches of curves of some pairs, for the numpy path of the pairs the
+    kernel leaves."""
+    res, left = solve_pairs(packed, pairs, ranges, n)
+    out = [res[:, 0], res[:, 1], res[:, 2], res[:, 3], res[:, 4:7], res[:, 7:10]]
+    if left.any():
+        idx = np.flatnonzero(left)
+        ca, cb = curves_of(idx)
+        for arr, val in zip(out, _numpy_pairs(ca, cb, ranges[idx, :2], ranges[idx, 2:], n),
+                            strict=True):
+            arr[idx] = val
+    return out
 
 
 def robot_curves(
@@ -469,6 +396,7 @@ def cable_clearance(
     *,
     shared_trim: float = SHARED_TRIM,
     samples: int = SAMPLES,
+    compiled: bool | None = None,
     **options: Any,
 ) -> CableClearance:
     """Smallest distance between every two sagging cables of a batch of poses, certified.
@@ -490,6 +418,11 @@ def cable_clearance(
         the other cable of a pair (unstretched length from that end).
     samples : int
         Samples along each cable for the bracket and the certificate.
+    compiled : bool, optional
+        The compiled kernels of the inverse kinematics (as
+        :func:`catenary.inverse_kinematics` decides by default) and of the distances
+        (as :func:`curve_distance`, pairs counted over all poses; each cable is then
+        sampled once per pose); False: the numpy references.
     **options
         Passed to :func:`catenary.inverse_kinematics` (``objective``, ``backend``,
         ``wrench`` ...).
@@ -516,7 +449,7 @@ def cable_clearance(
     trim = check_trim(shared_trim)
     whole_positive("samples", samples)
     P = robot.as_poses(poses)
-    res = inverse_kinematics(robot, P, model, **options)
+    res = inverse_kinematics(robot, P, model, compiled=compiled, **options)
     nan = np.where(res.success[:, None] & np.isfinite(res.lengths), 1.0, np.nan)
     H, V_A = res.horizontal_tensions * nan, res.platform_forces[..., 2] * nan
     curves = (_curves_over_wheels(robot, P, res, H, V_A, nan) if robot.has_pulleys
@@ -524,11 +457,7 @@ def cable_clearance(
     pairs = cable_pairs(robot.m)
     at_platform, at_anchor = shared_ends(robot, pairs)
     frac = pair_ranges(at_platform, at_anchor, trim)  # (P, 2, 2)
-    i, j = pairs[:, 0], pairs[:, 1]
-    a, b = curves.take(np.s_[:, i]), curves.take(np.s_[:, j])
-    found = curve_distance(
-        a, b, frac[None, :, 0, :] * a.L0[..., None], frac[None, :, 1, :] * b.L0[..., None], samples
-    )
+    found = _robot_pairs(curves, pairs, frac, samples, compiled)
     points = np.stack([found.point_a, found.point_b], axis=-2)
     arc = np.stack([found.s, found.t], axis=-1)
     extras = {"status": res.status, "gap": found.gap}
@@ -536,6 +465,33 @@ def cable_clearance(
     return CableClearance.from_pairs(
         found.distance, found.lower_bound, points, arc, pairs, shared, model, extras
     )
+
+
+def _robot_pairs(curves: CatenaryCurves, pairs: NDArray, frac: NDArray, samples: int,
+                 compiled: bool | None) -> CurveDistance:
+    """:func:`curve_distance` of every pair ``(P, 2)`` of a robot's curves (N, m) over
+    the shares ``frac`` (P, 2, 2) of their lengths; on the compiled path each curve is
+    sampled once, however many pairs it is in."""
+    i, j = pairs[:, 0], pairs[:, 1]
+    L0 = np.asarray(curves.L0)
+    ra, rb = frac[None, :, 0, :] * L0[:, i, None], frac[None, :, 1, :] * L0[:, j, None]
+    n = whole_positive("samples", samples)
+    N, m = L0.shape
+    if n < 2 or not use_compiled(N * len(pairs), compiled):
+        a, b = curves.take(np.s_[:, i]), curves.take(np.s_[:, j])
+        return curve_distance(a, b, ra, rb, samples, compiled=False)
+    rows = np.arange(N)[:, None] * m
+    idx = np.stack([rows + i, rows + j], axis=-1).reshape(-1, 2)
+    ranges = np.concatenate([ra, rb], axis=-1).reshape(-1, 4)
+
+    def curves_of(k: NDArray) -> tuple[CatenaryCurves, CatenaryCurves]:
+        flat = _flat(curves)
+        return flat.take(idx[k, 0]), flat.take(idx[k, 1])
+
+    d, lower, s, t, pa, pb = _pairs(pack_curves(curves), idx, ranges, n, curves_of)
+    shape = (N, len(pairs))
+    return CurveDistance(d.reshape(shape), lower.reshape(shape), s.reshape(shape),
+                         t.reshape(shape), pa.reshape(*shape, 3), pb.reshape(*shape, 3))
 
 
 def interference_free_workspace(

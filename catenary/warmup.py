@@ -2,7 +2,8 @@
 (:mod:`tension_opt.warmup`), registered when ``catenary`` is imported: the single
 cable (few cables one at a time, batches side by side in the vector unit, the
 bracketing search), the thesis convention's sag inverse kinematics of one pose, the
-coupled model's, and the platform stiffness (one pose, serial and parallel batches)."""
+coupled model's, the platform stiffness (one pose, serial and parallel batches) and the
+distances between sagging cables."""
 
 from __future__ import annotations
 
@@ -70,7 +71,16 @@ def _stiffness() -> None:
                out.cable_stiffness, out.platform_forces, out.tensions, out.lengths,
                out.equilibrium_residual, out.codes)
 
+def _interference() -> None:
+    from catenary.interference import cable_clearance
+    from tension_opt.robot import presets
+
+    robot = presets.cogiro()
+    cable_clearance(robot, robot.default_home(), "thesis", compiled=True)
+
+
 warmup.register("catenary: single cable", _single_cable)
 warmup.register("catenary: thesis sag IK", _thesis_ik)
 warmup.register("catenary: coupled sag IK", _coupled_ik)
 warmup.register("catenary: platform stiffness", _stiffness)
+warmup.register("catenary: sagging-cable interference", _interference)

@@ -170,6 +170,7 @@ COMPILE_SECONDS: dict[str, float] = {
     "closed form": 36.0,
     "catenary: platform stiffness": 35.0,
     "catenary: thesis sag IK": 24.0,
+    "catenary: sagging-cable interference": 8.0,
     "certificate of generic solvers": 17.0,
     "time-optimal timing": 15.0,
     "robot geometry": 2.0,
