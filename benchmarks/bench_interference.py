@@ -22,7 +22,7 @@ import numpy as np
 
 import catenary
 import tension_opt as to
-from catenary.interference import _robot_pairs, robot_curves
+from catenary.interference import robot_curves, robot_pair_distances
 from catenary.inverse import inverse_kinematics
 from tension_opt.workspace.interference import SHARED_TRIM, cable_pairs, pair_ranges, shared_ends
 
@@ -42,7 +42,7 @@ def _cases() -> dict[str, Callable[[], object]]:
     cases: dict[str, Callable[[], object]] = {}
     for compiled in (False, True):
         way = "compiled" if compiled else "numpy"
-        cases[f"28 pairs, curves given, {way}"] = partial(_robot_pairs, curves, pairs, frac,
+        cases[f"28 pairs, curves given, {way}"] = partial(robot_pair_distances, curves, pairs, frac,
                                                           33, compiled)
         cases[f"cable_clearance, 1 pose, {way}"] = partial(
             catenary.cable_clearance, robot, one, "thesis", compiled=compiled)

@@ -75,6 +75,7 @@ __all__ = [
     "curves_in",
     "interference_free_workspace",
     "robot_curves",
+    "robot_pair_distances",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -457,7 +458,7 @@ def cable_clearance(
     pairs = cable_pairs(robot.m)
     at_platform, at_anchor = shared_ends(robot, pairs)
     frac = pair_ranges(at_platform, at_anchor, trim)  # (P, 2, 2)
-    found = _robot_pairs(curves, pairs, frac, samples, compiled)
+    found = robot_pair_distances(curves, pairs, frac, samples, compiled)
     points = np.stack([found.point_a, found.point_b], axis=-2)
     arc = np.stack([found.s, found.t], axis=-1)
     extras = {"status": res.status, "gap": found.gap}
@@ -467,11 +468,29 @@ def cable_clearance(
     )
 
 
-def _robot_pairs(curves: CatenaryCurves, pairs: NDArray, frac: NDArray, samples: int,
+def robot_pair_distances(curves: CatenaryCurves, pairs: NDArray, frac: NDArray, samples: int,
                  compiled: bool | None) -> CurveDistance:
-    """:func:`curve_distance` of every pair ``(P, 2)`` of a robot's curves (N, m) over
-    the shares ``frac`` (P, 2, 2) of their lengths; on the compiled path each curve is
-    sampled once, however many pairs it is in."""
+    """:func:`curve_distance` of every pair of a robot's curves at each pose.
+
+    Parameters
+    ----------
+    curves : CatenaryCurves
+        Batch shape (N, m): the cables of N poses (:func:`robot_curves`).
+    pairs : ndarray of int, shape (P, 2)
+        Cables compared (:func:`tension_opt.workspace.cable_pairs`).
+    frac : ndarray, shape (P, 2, 2)
+        Share of each cable's unstretched length compared, ``[lo, hi]`` per cable of a
+        pair (:func:`tension_opt.workspace.interference.pair_ranges`).
+    samples : int
+    compiled : bool, optional
+        As in :func:`curve_distance` (pairs counted over all poses); on the compiled
+        path each curve is sampled once, however many pairs it is in.
+
+    Returns
+    -------
+    CurveDistance
+        Batch shape (N, P).
+    """
     i, j = pairs[:, 0], pairs[:, 1]
     L0 = np.asarray(curves.L0)
     ra, rb = frac[None, :, 0, :] * L0[:, i, None], frac[None, :, 1, :] * L0[:, j, None]

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 if TYPE_CHECKING:
-    from .interference import CatenaryCurves
+    from .curves import CatenaryCurves
 
 __all__ = ["PAIRS_PER_CALL", "pack_curves", "solve_pairs", "use_compiled"]
 
