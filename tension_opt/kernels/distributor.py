@@ -65,6 +65,9 @@ __all__ = [
     "certified_work_size",
 ]
 
+#: Codes of :func:`_pose` for a pose whose certificate needs the refit (its equilibrium
+#: and bounds held, or not), which :func:`certified_one` settles.
+_REFIT, _REFIT_HELD = 10, 11
 #: Columns of a batch's ``info`` array: unique, equilibrium residual, infeasibility,
 #: primal residual, dual residual, duality gap.
 INFO = 6
@@ -221,7 +224,7 @@ def _pose(
     anchors, attachments, com, q0, c0, v, lb0, ub0, rate = consts
     A, b, q, c, lb, ub, rest = form
     rows, P, cs, Aeq, beq, G, h, lbs, ubs, x, y, mu, z, B, H, u, grad, shrink, station, e, \
-        refit = cert
+        _ = cert
     kind, m, n = int(data[0]), int(data[1]), int(data[2])
     o = HEADER + 12 * m
     target, vmax = data[o], data[o + 2]
@@ -313,14 +316,11 @@ def _pose(
     pose_estimate(P, cs, Aeq, G, h, lbs, ubs, x, RIDGE, y, mu, z, B, H, u, grad, shrink)
     first, second, third = pose_measures(P, cs, Aeq, beq, G, h, lbs, ubs, x, y, mu, z, station)
     met = first <= target and second <= target and third <= target
-    if first <= target and not met:  # the sign-constrained refit of certify
-        first, second, third, kept = pose_refit(P, cs, Aeq, beq, G, h, lbs, ubs, x, y, mu, z,
-                                                (first, second, third), station, refit)
-        if kept < 0:  # a singular fit: the numpy path's
-            return CODE_FALLBACK, True, nan, nan, nan, nan, nan
-        met = first <= target and second <= target and third <= target
     tol = tol_factor * pose_scales(A, b, lb)[1]
-    code = 0 if met and residual <= tol and violation <= tol else 3
+    held = residual <= tol and violation <= tol
+    if first <= target and not met:  # the refit of certify, by the caller (not inlined)
+        return _REFIT_HELD if held else _REFIT, once, residual, infeas, first, second, third
+    code = 0 if met and held else 3
     return code, once, residual, infeas, first, second, third
 
 
@@ -362,9 +362,31 @@ def certified_one(
     consts = _constants(data)
     form, cert = _views(data, work)
     result = _pose(data, consts, pose, wrench, prev, has_prev, form, cert, T)
+    if result[0] == _REFIT or result[0] == _REFIT_HELD:
+        result = _refitted(data, cert, result)
     if work.size < 0:  # never: work read after the views' last use (they own nothing)
         result = (CODE_FALLBACK, True, np.nan, np.nan, np.nan, np.nan, np.nan)
     return result
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _refitted(data: NDArray, cert: tuple[NDArray, ...],
+              result: tuple[int, bool, float, float, float, float, float]
+              ) -> tuple[int, bool, float, float, float, float, float]:
+    """A pose :func:`_pose` left uncertified though primal feasible (codes
+    :data:`_REFIT`, :data:`_REFIT_HELD`: its equilibrium and bounds held), after the
+    sign-constrained refit of its multipliers (:func:`tension_opt.kernels.refit.pose_refit`,
+    as :func:`tension_opt.certify.certificate.certify` refits)."""
+    P, cs, Aeq, beq, G, h, lbs, ubs, x, y, mu, z = cert[1:13]
+    station, refit = cert[18], cert[20]
+    code, once, residual, infeas, first, second, third = result
+    first, second, third, kept = pose_refit(P, cs, Aeq, beq, G, h, lbs, ubs, x, y, mu, z,
+                                            (first, second, third), station, refit)
+    if kept < 0:  # a singular fit: the numpy path's
+        return CODE_FALLBACK, True, np.nan, np.nan, np.nan, np.nan, np.nan
+    target = data[HEADER + 12 * int(data[1])]
+    met = first <= target and second <= target and third <= target
+    return 0 if met and code == _REFIT_HELD else 3, once, residual, infeas, first, second, third
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

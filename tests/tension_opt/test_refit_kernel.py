@@ -153,3 +153,20 @@ def test_certify_refits_a_compiled_size_batch_as_scipy_does(
         b = getattr(reference.multipliers, name)[stuck]
         top = np.maximum(1.0, np.abs(b).max(axis=1, keepdims=True))
         assert (np.abs(a - b) <= FIT_REL * top).all(), name
+
+
+def test_the_distributor_refits_in_its_compiled_call() -> None:
+    """CoGiRo poses with active bounds whose cheap fit misses a cone: one pose per call,
+    each answered by the compiled kernel, optimal and certified, with distribute's
+    status."""
+    robot = presets.cogiro()
+    poses = select_poses(robot, 600, False, 1)
+    _batch, _x, _mult, _measured, stuck = _stuck(robot, poses, "centered")
+    solver = to.Distributor(robot, "centered", "closed_form")
+    for i in stuck:
+        got = solver(np.ascontiguousarray(poses[i]))
+        assert got.compiled and got.status == to.Status.OPTIMAL
+        assert max(got.primal_residual, got.dual_residual, got.duality_gap) <= 1e-7
+        plain = to.distribute(robot, poses[i], "centered", "closed_form")
+        assert plain.status[0] == to.Status.OPTIMAL.value
+        np.testing.assert_allclose(got.tensions, plain.tensions[0], rtol=1e-12, atol=1e-9)
