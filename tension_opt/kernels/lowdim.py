@@ -274,9 +274,6 @@ def qp_2d(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
             points[j, 0], points[j, 1] = x, y
             floor[j] = 0.5 * (h00 * x * x + 2.0 * h01 * x * y + h11 * y * y) + g0 * x + g1 * y
             finite = finite and math.isfinite(floor[j])
-    if not finite:  # no bound to skip by: every candidate, in the reference's order
-        return _qp_2d_all(normals, beta, present, limits, points, h00, h01, h11, g0, g1,
-                          work[8 * L:])
     best = np.inf
     z0 = z1 = np.nan
     for j in range(L):
@@ -286,8 +283,10 @@ def qp_2d(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
     for i in range(L):
         for j in range(i + 1, L):
             bound = max(floor[i], floor[j])
-            if bound - best > 1e-9 * (abs(bound) + abs(best)) and not math.isnan(z0):
-                continue  # cannot be of less value (rounding allowed for)
+            if finite and bound - best > 1e-9 * (abs(bound) + abs(best)) \
+                    and not math.isnan(z0):
+                continue  # cannot be of less value (rounding allowed for); where a
+                # line's value is not finite, no bound: every crossing, in order
             a1x, a1y, a2x, a2y = normals[i, 0], normals[i, 1], normals[j, 0], normals[j, 1]
             det = a1x * a2y - a1y * a2x
             if not (present[i] != 0.0 and present[j] != 0.0 and abs(det) > 1e-14):
@@ -311,23 +310,6 @@ def _kept(x: float, y: float, normals: NDArray, limits: NDArray, h00: float, h01
     if (normals.size | limits.size) < 0:  # never: the arrays read last (tension_opt.kernels)
         best = np.nan
     return best, z0, z1
-
-
-@njit(cache=True, error_model="numpy")
-def _qp_2d_all(normals: NDArray, beta: NDArray, present: NDArray, limits: NDArray,
-               on_lines: NDArray, h00: float, h01: float, h11: float, g0: float, g1: float,
-               work: NDArray) -> tuple[float, float, bool]:
-    """:func:`qp_2d`'s candidates after the unconstrained minimum, all taken in the
-    reference's order (where a value is not finite, so that no bound may skip one)."""
-    best = np.inf
-    z0 = z1 = np.nan
-    crossings = _vertices(normals, beta, present, work)
-    for group in range(2):
-        points = on_lines if group == 0 else crossings
-        for p in range(points.shape[0]):
-            x, y = points[p, 0], points[p, 1]
-            best, z0, z1 = _kept(x, y, normals, limits, h00, h01, h11, g0, g1, best, z0, z1)
-    return z0, z1, not math.isnan(z0)
 
 
 @njit(cache=True, error_model="numpy")
