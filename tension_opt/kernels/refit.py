@@ -154,22 +154,25 @@ def bounded_lstsq(M: NDArray, rhs: NDArray, lo: NDArray, hi: NDArray, u: NDArray
                 break
             if not _least_squares(M, rhs, free, f, Q, b, s):
                 return False
-            alpha = 1.0
+            alpha, block = 1.0, -1
             for jj in range(f):
                 j = int(free[jj])
+                step = 1.0
                 if s[jj] < lo[j]:
-                    alpha = min(alpha, (lo[j] - u[j]) / (s[jj] - u[j]))
+                    step = (lo[j] - u[j]) / (s[jj] - u[j])
                 elif s[jj] > hi[j]:
-                    alpha = min(alpha, (hi[j] - u[j]) / (s[jj] - u[j]))
+                    step = (hi[j] - u[j]) / (s[jj] - u[j])
+                if step < alpha:
+                    alpha, block = step, j
             for jj in range(f):
                 j = int(free[jj])
                 u[j] += alpha * (s[jj] - u[j])
             if alpha >= 1.0:
                 break
-            for jj in range(f):
+            for jj in range(f):  # the blocking variable, and any other the step met
                 j = int(free[jj])
-                if (s[jj] < lo[j] or s[jj] > hi[j]) and (
-                        abs(u[j]) <= 1e-12 * abs(s[jj]) or u[j] < lo[j] or u[j] > hi[j]):
+                if j == block or ((s[jj] < lo[j] or s[jj] > hi[j]) and (
+                        abs(u[j]) <= 1e-12 * abs(s[jj]) or u[j] < lo[j] or u[j] > hi[j])):
                     u[j], fixed[j] = 0.0, 1.0
                     if j == freed and first:  # rounding: it would be freed forever
                         tried[j] = 1.0
