@@ -72,11 +72,14 @@ def _stiffness() -> None:
                out.equilibrium_residual, out.codes)
 
 def _interference() -> None:
-    from catenary.interference import cable_clearance
-    from tension_opt.robot import presets
+    from catenary.curves import CatenaryCurves
+    from catenary.interference import curve_distance
 
-    robot = presets.cogiro()
-    cable_clearance(robot, robot.default_home(), "thesis", compiled=True)
+    # Two hanging cables, the kernel alone (the sag IK is a family of its own).
+    curves = [CatenaryCurves(np.array([0.0, y, 0.0]), np.array([1.0, 0.0, 0.0]),
+                             np.array(200.0), np.array(-20.0), np.array(10.2), 2.0, EA,
+                             np.zeros(3)) for y, EA in ((0.0, np.inf), (0.5, 1e6))]
+    curve_distance(*curves, compiled=True)
 
 
 warmup.register("catenary: single cable", _single_cable)
