@@ -79,7 +79,7 @@ def _interference() -> None:
     curves = [CatenaryCurves(np.array([0.0, y, 0.0]), np.array([1.0, 0.0, 0.0]),
                              np.array(200.0), np.array(-20.0), np.array(10.2), 2.0, EA,
                              np.zeros(3)) for y, EA in ((0.0, np.inf), (0.5, 1e6))]
-    curve_distance(*curves, compiled=True)
+    curve_distance(curves[0], curves[1], compiled=True)
 
 
 warmup.register("catenary: single cable", _single_cable)
