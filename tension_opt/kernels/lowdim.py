@@ -181,15 +181,24 @@ def _vertices(normals: NDArray, beta: NDArray, present: NDArray, work: NDArray) 
     k = 0
     for i in range(L):
         for j in range(i + 1, L):
-            a1x, a1y, a2x, a2y = normals[i, 0], normals[i, 1], normals[j, 0], normals[j, 1]
-            det = a1x * a2y - a1y * a2x
-            if present[i] != 0.0 and present[j] != 0.0 and abs(det) > 1e-14:
-                out[k, 0] = (beta[i] * a2y - beta[j] * a1y) / det
-                out[k, 1] = (a1x * beta[j] - a2x * beta[i]) / det
-            else:
-                out[k, 0] = out[k, 1] = np.nan
+            out[k, 0], out[k, 1] = _crossing(normals, beta, present, i, j)
             k += 1
     return out
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _crossing(normals: NDArray, beta: NDArray, present: NDArray, i: int, j: int
+              ) -> tuple[float, float]:
+    """Where lines ``i`` and ``j`` cross; NaN where one is absent or they are parallel."""
+    a1x, a1y, a2x, a2y = normals[i, 0], normals[i, 1], normals[j, 0], normals[j, 1]
+    det = a1x * a2y - a1y * a2x
+    x = y = np.nan
+    if present[i] != 0.0 and present[j] != 0.0 and abs(det) > 1e-14:
+        x = (beta[i] * a2y - beta[j] * a1y) / det
+        y = (a1x * beta[j] - a2x * beta[i]) / det
+    if (normals.size | beta.size | present.size) < 0:  # never: read last (tension_opt.kernels)
+        x = np.nan
+    return x, y
 
 
 @njit(cache=True, error_model="numpy")
@@ -287,29 +296,12 @@ def qp_2d(T0: NDArray, Z: NDArray, lb: NDArray, ub: NDArray, q: NDArray, c: NDAr
                     and not math.isnan(z0):
                 continue  # cannot be of less value (rounding allowed for); where a
                 # line's value is not finite, no bound: every crossing, in order
-            a1x, a1y, a2x, a2y = normals[i, 0], normals[i, 1], normals[j, 0], normals[j, 1]
-            det = a1x * a2y - a1y * a2x
-            if not (present[i] != 0.0 and present[j] != 0.0 and abs(det) > 1e-14):
-                continue
-            x = (beta[i] * a2y - beta[j] * a1y) / det
-            y = (a1x * beta[j] - a2x * beta[i]) / det
-            best, z0, z1 = _kept(x, y, normals, limits, h00, h01, h11, g0, g1, best, z0, z1)
+            x, y = _crossing(normals, beta, present, i, j)
+            if _feasible(x, y, normals, limits):  # (False for a NaN crossing)
+                value = 0.5 * (h00 * x * x + 2.0 * h01 * x * y + h11 * y * y) + g0 * x + g1 * y
+                if value < best or math.isnan(z0):
+                    best, z0, z1 = value, x, y
     return z0, z1, not math.isnan(z0)
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _kept(x: float, y: float, normals: NDArray, limits: NDArray, h00: float, h01: float,
-          h11: float, g0: float, g1: float, best: float, z0: float, z1: float
-          ) -> tuple[float, float, float]:
-    """The candidate ``(x, y)`` as ``(value, x, y)`` where it is feasible and of less
-    value than the best so far (or the first), else the best so far."""
-    if _feasible(x, y, normals, limits):
-        value = 0.5 * (h00 * x * x + 2.0 * h01 * x * y + h11 * y * y) + g0 * x + g1 * y
-        if value < best or math.isnan(z0):
-            best, z0, z1 = value, x, y
-    if (normals.size | limits.size) < 0:  # never: the arrays read last (tension_opt.kernels)
-        best = np.nan
-    return best, z0, z1
 
 
 @njit(cache=True, error_model="numpy")
