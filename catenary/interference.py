@@ -62,6 +62,7 @@ from tension_opt.workspace.interference_free import InterferenceResult, interfer
 from .curves import CatenaryCurves
 from .geometry import E_Z, CablePlanes, cable_data, cable_planes, check_robot
 from .interference_compiled import pack_curves, solve_pairs, use_compiled
+from .interference_kernels import STEPS
 from .inverse import inverse_kinematics
 from .pulleys import settle_wraps
 from .workspace import sag_workspace
@@ -82,9 +83,8 @@ FloatArray = NDArray[np.float64]
 
 #: Default number of samples along each cable for the bracket and the certificate.
 SAMPLES = 33
-# Gauss-Newton steps of the refinement, and how many curve pairs are bracketed at once
-# (bounds the memory of the piece-by-piece comparison).
-_STEPS = 30
+# How many curve pairs are bracketed at once (bounds the memory of the piece-by-piece
+# comparison); the refinement's steps are interference_kernels.STEPS, on both paths.
 _CELLS_PER_BLOCK = 400_000
 
 
@@ -186,7 +186,7 @@ def _refine(
     d = np.linalg.norm(pa - pb, axis=-1)
     tol = 1e-12 * (1.0 + ra[:, 1] + rb[:, 1])
     live = np.flatnonzero(np.isfinite(d))
-    for _ in range(_STEPS):
+    for _ in range(STEPS):
         if not len(live):
             break
         ca, cb, sl, tl = a.take(live), b.take(live), s[live], t[live]
@@ -266,7 +266,8 @@ def curve_distance(
     if use_compiled(S, compiled):
         packed = np.concatenate([pack_curves(fa), pack_curves(fb)])
         pairs = np.stack([np.arange(S), S + np.arange(S)], axis=1)
-        out = _pairs(packed, pairs, np.concatenate([ra, rb], axis=1), n, _flat_pair(fa, fb))
+        out = _pairs(packed, pairs, np.concatenate([ra, rb], axis=1), n,
+                     lambda idx: (fa.take(idx), fb.take(idx)))
     else:
         out = _numpy_pairs(fa, fb, ra, rb, n)
     d, lower, s, t, pa, pb = out
@@ -285,11 +286,6 @@ def _flat(c: CatenaryCurves) -> CatenaryCurves:
     f = c.take(np.s_[...])
     return CatenaryCurves(f.origin.reshape(-1, 3), f.e_h.reshape(-1, 3), f.H.ravel(),
                           f.V_A.ravel(), f.L0.ravel(), c.w, c.EA, f.closure.reshape(-1, 3))
-
-
-def _flat_pair(fa: CatenaryCurves, fb: CatenaryCurves) -> Any:
-    """The curves of pair ``p`` of two flat batches (for the pairs the kernel leaves)."""
-    return lambda idx: (fa.take(idx), fb.take(idx))
 
 
 def _numpy_pairs(fa: CatenaryCurves, fb: CatenaryCurves, ra: FloatArray, rb: FloatArray,

@@ -25,6 +25,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from catenary.solve.kernels_spans import spans
+from tension_opt.workspace.interference import PARALLEL
 
 __all__ = ["CURVE_COLUMNS", "OUT_COLUMNS", "curve_pairs"]
 
@@ -32,11 +33,8 @@ __all__ = ["CURVE_COLUMNS", "OUT_COLUMNS", "curve_pairs"]
 CURVE_COLUMNS = 14
 #: Columns of a pair's result: distance, lower bound, s, t, point a (3), point b (3).
 OUT_COLUMNS = 10
-#: Gauss-Newton steps of the refinement (:data:`catenary.interference._STEPS`).
+#: Gauss-Newton steps of the refinement (the numpy reference's too).
 STEPS = 30
-#: Relative size of ``a e - b^2`` below which two segments count as parallel
-#: (:data:`tension_opt.workspace.interference._PARALLEL`).
-PARALLEL = 1e-14
 
 
 @njit(cache=True, error_model="numpy")

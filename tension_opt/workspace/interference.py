@@ -36,6 +36,7 @@ from tension_opt.errors import InvalidInputError
 from tension_opt.robot import CableRobot
 
 __all__ = [
+    "PARALLEL",
     "SHARED_TRIM",
     "CableClearance",
     "SegmentDistance",
@@ -50,8 +51,8 @@ FloatArray = NDArray[np.float64]
 
 #: Default share of each cable's length left out at an end it shares with another.
 SHARED_TRIM = 0.05
-# Relative size of ``a e - b^2`` below which two segments count as parallel.
-_PARALLEL = 1e-14
+#: Relative size of ``a e - b^2`` below which two segments count as parallel.
+PARALLEL = 1e-14
 
 
 @dataclass(frozen=True)
@@ -99,7 +100,7 @@ def segment_distance(p0: ArrayLike, p1: ArrayLike, q0: ArrayLike, q1: ArrayLike)
     f = np.einsum("...i,...i->...", d2, r)
     with np.errstate(invalid="ignore", divide="ignore"):
         denom = a * e - b * b
-        inside = denom > _PARALLEL * a * e
+        inside = denom > PARALLEL * a * e
         s_in = np.where(inside, (b * f - c * e) / np.where(inside, denom, 1.0), 0.0)
         t_in = np.where(inside, (a * f - b * c) / np.where(inside, denom, 1.0), 0.0)
         inside &= (s_in >= 0) & (s_in <= 1) & (t_in >= 0) & (t_in <= 1)
