@@ -11,7 +11,7 @@ too, naming the argument): catch :class:`ValueError` to take both.
 
 from __future__ import annotations
 
-__all__ = ["CatenaryError", "InvalidCableError", "OptionalDependencyError"]
+__all__ = ["CatenaryError", "InvalidCableError", "InvalidDesignError", "OptionalDependencyError"]
 
 
 class CatenaryError(Exception):
@@ -24,6 +24,12 @@ class InvalidCableError(CatenaryError, ValueError):
     Per-cable numerical trouble (no solution, no convergence) is never raised;
     it is reported in the ``status`` field of the solver results instead.
     """
+
+
+class InvalidDesignError(CatenaryError, ValueError):
+    """A design space, criterion or design optimisation is set up wrongly (a variable
+    out of range, bounds the wrong way round, a criterion the robot cannot take); the
+    message names the argument and the fix (:mod:`catenary.design`)."""
 
 
 class OptionalDependencyError(CatenaryError, ImportError):

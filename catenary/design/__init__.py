@@ -1,0 +1,53 @@
+"""Robot design by optimisation: design variables, criteria with analytic gradients, and
+a multi-start optimiser over them (guide: ``docs/guides/design.md``).
+
+- :mod:`catenary.design.space`: :class:`DesignSpace` and its variables (drawing and
+  attachment points, cable diameter, winch ``t_max``);
+- :mod:`catenary.design.criteria`: peak tension, tension energy, workspace volume, sag
+  correction, cable mass, lowest natural frequency;
+- :mod:`catenary.design.optimize`: :func:`optimize_design`.
+"""
+
+from .criteria import (
+    CableMass,
+    Criterion,
+    CriterionValue,
+    LowestFrequency,
+    PeakTension,
+    SagCorrection,
+    TensionEnergy,
+    WorkspaceCoverage,
+    soft_max,
+)
+from .optimize import DesignConstraint, DesignResult, optimize_design
+from .space import (
+    DesignSpace,
+    DesignVariable,
+    RobotGradient,
+    anchor_coordinate,
+    attachment_coordinate,
+    cable_diameter,
+    winch_t_max,
+)
+
+__all__ = [
+    "CableMass",
+    "Criterion",
+    "CriterionValue",
+    "DesignConstraint",
+    "DesignResult",
+    "DesignSpace",
+    "DesignVariable",
+    "LowestFrequency",
+    "PeakTension",
+    "RobotGradient",
+    "SagCorrection",
+    "TensionEnergy",
+    "WorkspaceCoverage",
+    "anchor_coordinate",
+    "attachment_coordinate",
+    "cable_diameter",
+    "optimize_design",
+    "soft_max",
+    "winch_t_max",
+]
