@@ -197,6 +197,10 @@ class DesignSpace:
         if not isinstance(self.robot, CableRobot):
             raise InvalidDesignError(f"robot must be a tension_opt.CableRobot, got "
                                      f"{type(self.robot).__name__}")
+        if self.robot.has_pulleys:
+            raise InvalidDesignError(
+                "a design space over a robot with guide pulleys is not supported: the "
+                "criteria's derivatives span each cable from a fixed drawing point")
         variables = tuple(self.variables)
         object.__setattr__(self, "variables", variables)
         if not variables or not all(isinstance(v, DesignVariable) for v in variables):
