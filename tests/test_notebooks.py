@@ -18,6 +18,7 @@ EXPECTED = {
     "05_workspace.ipynb",
     "06_dynamics.ipynb",
     "07_explorer.ipynb",
+    "08_design.ipynb",
 }
 # A guard against a hung cell, not a benchmark: each notebook takes well under this.
 CELL_TIMEOUT_S = 120

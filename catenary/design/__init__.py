@@ -10,6 +10,7 @@ a multi-start optimiser over them (guide: ``docs/guides/design.md``).
 
 from .criteria import (
     CableMass,
+    CableStrength,
     Criterion,
     CriterionValue,
     LowestFrequency,
@@ -32,6 +33,7 @@ from .space import (
 
 __all__ = [
     "CableMass",
+    "CableStrength",
     "Criterion",
     "CriterionValue",
     "DesignConstraint",

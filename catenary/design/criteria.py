@@ -46,14 +46,15 @@ from tension_opt.robot.derivatives import column_derivatives
 
 from ..errors import InvalidDesignError
 from ..geometry import cable_data, cable_planes
+from ..materials import breaking_load
 from ..response import natural_frequencies
 from ..sensitivity import length_partials
 from .cable_weight import HalfWeight
 from .space import RobotGradient
 from .tension_margin import TensionMargins, tension_margins
 
-__all__ = ["CableMass", "Criterion", "CriterionValue", "LowestFrequency", "PeakTension",
-           "SagCorrection", "TensionEnergy", "WorkspaceCoverage", "soft_max"]
+__all__ = ["CableMass", "CableStrength", "Criterion", "CriterionValue", "LowestFrequency",
+           "PeakTension", "SagCorrection", "TensionEnergy", "WorkspaceCoverage", "soft_max"]
 
 FloatArray = NDArray[np.float64]
 
@@ -110,6 +111,11 @@ class Criterion:
     def evaluate(self, robot: CableRobot) -> CriterionValue:
         """The criterion on ``robot``."""
         raise NotImplementedError
+
+    def with_material(self, material: str | None) -> Criterion:
+        """This criterion for cables of catalogue ``material`` (the optimiser calls it
+        with its space's material); most criteria read the robot alone."""
+        return self
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r}, unit={self.unit!r})"
@@ -500,6 +506,49 @@ class CableMass(_OverPoses):
                              grad.diameter + 2.0 * mu / d * float(longest.sum()), grad.t_max)
         return CriterionValue(mu * float(longest.sum()), mu * float(s.L0.max(axis=0).sum()),
                               grad, int((~s.state.ok).sum()))
+
+
+class CableStrength(Criterion):
+    """The load of the most loaded winch's cable over its breaking load,
+    ``safety * max_i t_max_i / breaking_load(d)``: bound it by 1 to size the cable for
+    its winch (:func:`catenary.breaking_load`, the rope's strength on its nominal
+    section).
+
+    Parameters
+    ----------
+    safety : float
+        The safety factor (default 3).
+    material : str, optional
+        The catalogue material; default: the design space's (set by the optimiser).
+    """
+
+    name = "cable strength use"
+    unit = ""
+
+    def __init__(self, safety: float = 3.0, material: str | None = None) -> None:
+        self.safety = _positive(safety, "safety")
+        self.material = material
+
+    def with_material(self, material: str | None) -> Criterion:
+        return self if material is None else CableStrength(self.safety, material)
+
+    def evaluate(self, robot: CableRobot) -> CriterionValue:
+        if self.material is None or robot.cable is None:
+            raise InvalidDesignError("CableStrength needs a catalogue material (material= "
+                                     "here or on the DesignSpace) and a robot with a cable")
+        d = robot.cable.diameter
+        strength = float(breaking_load(self.material, d))
+        if not np.isfinite(strength):
+            raise InvalidDesignError(f"the catalogue knows no rope strength of "
+                                     f"{self.material!r}: choose another material")
+        t_max = np.broadcast_to(np.asarray(robot.t_max, dtype=float), (robot.m,))
+        top = int(np.argmax(t_max))
+        value = self.safety * float(t_max[top]) / strength
+        d_t = np.zeros(robot.m)
+        d_t[top] = self.safety / strength
+        grad = RobotGradient(np.zeros((robot.m, 3)), np.zeros((robot.m, 3)),
+                             -2.0 * value / d, d_t)
+        return CriterionValue(value, value, grad)
 
 
 class LowestFrequency(Criterion):

@@ -72,7 +72,8 @@ class DesignConstraint:
 
 @dataclass(frozen=True, eq=False)
 class DesignResult:
-    """The best design found.
+    """The best design found: of the starts that end on a design meeting the
+    constraints, the one with the best plain value (ties: the best smooth value).
 
     Attributes
     ----------
@@ -252,7 +253,8 @@ def optimize_design(
     rows: list[dict[str, Any]] = []
     evaluations = 0
     for sp in spaces:
-        prob = _Problem(sp, [objective, *(c.criterion for c in constraints)],
+        prob = _Problem(sp, [c.with_material(sp.material)
+                             for c in (objective, *(k.criterion for k in constraints))],
                         np.array([-1.0 if maximize else 1.0]), t0 + time_limit)
         for j, u0 in enumerate(unit_starts):
             rows.append(_run_start(prob, constraints, u0, j, max_iter))
@@ -355,8 +357,9 @@ def _result(space: DesignSpace, objective: Criterion, constraints: Sequence[Desi
         x = space.x0
         return DesignResult(x, space.names, space.robot_at(x), np.nan, np.nan, {}, status,
                             space.material, table, evaluations, seconds)
-    key = (lambda r: -r["smooth"]) if maximize else (lambda r: r["smooth"])
-    best = min(usable, key=key)
+    # The plain value is what the design is worth; the smooth one breaks its ties.
+    sign = -1.0 if maximize else 1.0
+    best = min(usable, key=lambda r: (sign * r["objective"], sign * r["smooth"]))
     chosen = space.with_material(best["material"]) if best["material"] else space
     return DesignResult(np.asarray(best["x"]), space.names, chosen.robot_at(best["x"]),
                         float(best["objective"]), float(best["smooth"]),

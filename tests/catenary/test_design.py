@@ -135,6 +135,20 @@ def test_random_designs_gradients(height: float, shift: float, d: float, t_max: 
         assert_gradient(space, criterion, x, rtol=1e-5)
 
 
+def test_cable_strength_against_the_catalogue() -> None:
+    space = study_space()
+    x = space.x0 + np.array([0.0, 0.0, 0.0, -0.006, 3000.0])
+    criterion = D.CableStrength(3.0).with_material("steel")
+    got = criterion.evaluate(space.robot_at(x))
+    assert got.value == pytest.approx(3 * 18000.0 / float(catenary.breaking_load("steel", 0.014)),
+                                      rel=1e-12)
+    assert_gradient(space, criterion, x)
+    with pytest.raises(InvalidDesignError, match="catalogue material"):
+        D.CableStrength().evaluate(space.robot_at(x))
+    with pytest.raises(InvalidDesignError, match="no rope strength"):
+        D.CableStrength(material="aramid").evaluate(space.robot_at(x))
+
+
 def test_straight_coverage_is_the_wrench_feasible_workspace() -> None:
     robot = to.presets.algae_harvester(t_max=15000.0)
     grid = study_grid(33, 21)
@@ -207,7 +221,8 @@ def test_constraint_is_met_and_materials_are_compared() -> None:
                                   D.cable_diameter(0.008, 0.03)])
     mass = D.CableMass(PATH)
     result = D.optimize_design(space, D.PeakTension(PATH, cable_weight=True), starts=2,
-                               constraints=[D.DesignConstraint(mass, upper=200.0)],
+                               constraints=[D.DesignConstraint(mass, upper=200.0),
+                                            D.DesignConstraint(D.CableStrength(), upper=1.0)],
                                materials=["steel", "dyneema"])
     assert result.status == "converged"
     assert result.material in ("steel", "dyneema")
