@@ -69,9 +69,13 @@ __all__ = [
     "ACTIVE_TOL",
     "COND_MAX",
     "MULTIPLIER_TOL",
+    "NEEDS_ROBOT",
     "SENSITIVITY_STATUSES",
     "WRT",
+    "KktSystem",
     "Sensitivity",
+    "checked_form",
+    "jacobian_shape",
     "tension_jacobian",
 ]
 
@@ -87,7 +91,7 @@ ACTIVE_TOL = 1e-5
 MULTIPLIER_TOL = 1e-5
 #: Largest 1-norm condition number of a KKT matrix taken as nonsingular.
 COND_MAX = 1e10
-_NEEDS_ROBOT = ("pose", "drawing_points", "attachment_points")
+NEEDS_ROBOT = ("pose", "drawing_points", "attachment_points")
 
 
 @dataclass(frozen=True, eq=False)
@@ -161,7 +165,7 @@ def tension_jacobian(
         For an unknown ``wrt``, a solution without multipliers, or a missing or
         mismatched ``robot`` / ``poses``.
     """
-    form, p = _checked_form(solution, wrt, robot, poses, wrench, previous)
+    form, p = checked_form(solution, wrt, robot, poses, wrench, previous)
     N, m = solution.N, form.m
     batch = scaled_batch(form)
     mult = solution.multipliers
@@ -173,11 +177,11 @@ def tension_jacobian(
     code = np.full(N, _NOT_OPTIMAL, dtype=np.int8)
     solved = solution.success & mult.known & np.isfinite(solution.tensions).all(axis=1)
     idx = np.flatnonzero(solved)
-    shape = _shape(wrt, N, m, form.n)
+    shape = jacobian_shape(wrt, N, m, form.n)
     jac = np.full(shape, np.nan)
     if len(idx):
         frames = None
-        if wrt in _NEEDS_ROBOT:
+        if wrt in NEEDS_ROBOT:
             assert robot is not None and p is not None
             frames = cable_frames(robot, p[idx])
             if not np.allclose(frames.A, form.A[idx], rtol=1e-9, atol=1e-12):
@@ -187,7 +191,7 @@ def tension_jacobian(
                 )
         every = len(idx) == N
         sub = slice(None) if every else idx
-        kkt = _Kkt(form, batch, solution, sub)
+        kkt = KktSystem(form, batch, solution, sub)
         extra: Any = None
         if wrt == "pose":
             assert robot is not None and p is not None
@@ -202,7 +206,7 @@ def tension_jacobian(
     return Sensitivity(jac, np.asarray(SENSITIVITY_STATUSES)[code], wrt)
 
 
-def _checked_form(
+def checked_form(
     solution: Any,
     wrt: str,
     robot: CableRobot | None,
@@ -220,11 +224,11 @@ def _checked_form(
             "the solution holds no multipliers: differentiate a solution that "
             "tension_opt.distribute returned (its certificate keeps them)"
         )
-    needs_robot = wrt in _NEEDS_ROBOT or solution.form is None
+    needs_robot = wrt in NEEDS_ROBOT or solution.form is None
     if needs_robot and (not isinstance(robot, CableRobot) or poses is None):
         why = (
             f"wrt={wrt!r} moves the geometry"
-            if wrt in _NEEDS_ROBOT
+            if wrt in NEEDS_ROBOT
             else "the solution keeps no form (a batch solved in chunks)"
         )
         raise InvalidInputError(
@@ -246,7 +250,7 @@ def _checked_form(
     return form, p
 
 
-def _shape(wrt: str, N: int, m: int, n: int) -> tuple[int, ...]:
+def jacobian_shape(wrt: str, N: int, m: int, n: int) -> tuple[int, ...]:
     if wrt in ("wrench", "pose"):
         return (N, m, n)
     if wrt in ("t_min", "t_max", "previous"):
@@ -254,10 +258,17 @@ def _shape(wrt: str, N: int, m: int, n: int) -> tuple[int, ...]:
     return (N, m, m, 3)
 
 
-class _Kkt:
-    """The KKT matrices of the certified poses ``sub`` of a form at their active sets."""
+class KktSystem:
+    """The KKT matrices of the certified poses ``sub`` of a form at their active sets.
 
-    def __init__(self, form: StandardForm, batch: Any, solution: Any, sub: NDArray | slice) -> None:
+    ``near=True`` takes every bound the point is on as active, whatever its multiplier
+    (the matrices of a degenerate pose's directional derivatives,
+    :mod:`tension_opt.distribution.directional`); ``near_lo`` / ``near_hi`` (M, k) keep
+    where the point is on a bound and ``K`` (M, S, S) the matrices.
+    """
+
+    def __init__(self, form: StandardForm, batch: Any, solution: Any, sub: NDArray | slice,
+                 near: bool = False) -> None:
         self.form, self.sub = form, sub
         scaling = batch.scaling if batch.scaling is not None else compiled_scaling(form)
         self.s = batch.scale[sub]
@@ -276,8 +287,9 @@ class _Kkt:
         self.M, self.n, self.k, self.g, self.m = M, n, k, g, form.m
         with np.errstate(invalid="ignore"):
             near_lo, near_hi = x - lb <= ACTIVE_TOL, ub - x <= ACTIVE_TOL
-            self.lo = near_lo & (z < -MULTIPLIER_TOL)
-            self.hi = near_hi & (z > MULTIPLIER_TOL)
+            self.near_lo, self.near_hi = near_lo, near_hi
+            self.lo = near_lo & ((z < -MULTIPLIER_TOL) | near)
+            self.hi = near_hi & ((z > MULTIPLIER_TOL) | near) & ~self.lo
             active = self.lo | self.hi
             weak = ((near_lo | near_hi) & ~active) | ((np.abs(z) > MULTIPLIER_TOL) & ~active)
             weak |= near_lo & near_hi
@@ -301,7 +313,7 @@ class _Kkt:
         K[:, o_z + ak, ak] = aB
         K[:, o_z + ak, o_z + ak] = 1.0 - aB
         Kinv, singular = _inverse(K)
-        self.Kinv = Kinv
+        self.K, self.Kinv = K, Kinv
         # The KKT point of the active set: its multipliers enter dAeq'y.
         bound = np.where(self.lo, lb, np.where(self.hi, ub, 0.0))
         rhs = np.concatenate([-c, beq, np.zeros((M, g)), bound], axis=1)
@@ -323,13 +335,13 @@ class _Kkt:
 
     def derivative(self, wrt: str, extra: Any, non_unique: NDArray) -> tuple[NDArray, NDArray]:
         """``dT`` of every pose, shape (M, m, D), and the statuses (M,) of int8."""
-        rhs = self._rhs(wrt, extra)
+        rhs = self.rhs(wrt, extra)
         dx = self.Kinv[:, : self.m, :] @ rhs
         status = self.status.copy()
         status[non_unique] = _NON_UNIQUE
         return dx * self.s[:, None, None], status
 
-    def _rhs(self, wrt: str, extra: Any) -> NDArray:
+    def rhs(self, wrt: str, extra: Any) -> NDArray:
         """Right-hand sides (M, S, D) of the parameters ``wrt``."""
         M, n, k, g, m = self.M, self.n, self.k, self.g, self.m
         S, o_eq, o_z = 2 * k + n + g, k, k + n + g

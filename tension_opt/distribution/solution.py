@@ -27,6 +27,7 @@ from tension_opt.certify.certificate import (
     certify_form,
     primal_residual_of,
 )
+from tension_opt.distribution.directional import DirectionalDerivative, directional_derivative
 from tension_opt.distribution.sensitivity import Sensitivity, tension_jacobian
 from tension_opt.errors import InvalidInputError
 from tension_opt.status import STATUS_DTYPE, Status, StatusCodes
@@ -351,6 +352,16 @@ class TensionSolution:
         """
         return tension_jacobian(self, wrt, robot=robot, poses=poses, wrench=wrench,
                                 previous=previous)
+
+    def directional_derivative(self, wrt: str, direction: Any, *, robot: Any = None,
+                               poses: Any = None, wrench: Any = None,
+                               previous: Any = None) -> DirectionalDerivative:
+        """One-sided derivatives of the optimal tensions along ``direction`` of ``wrt``,
+        also where the Jacobian does not exist because a bound is just touched
+        (:func:`tension_opt.distribution.directional.directional_derivative`, which
+        documents the arguments and statuses)."""
+        return directional_derivative(self, wrt, direction, robot=robot, poses=poses,
+                                      wrench=wrench, previous=previous)
 
     def __repr__(self) -> str:
         counts = pd.Series([str(s) for s in self.status]).value_counts().to_dict()
