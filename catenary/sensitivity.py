@@ -43,8 +43,8 @@ from .errors import InvalidCableError
 from .geometry import cable_data, cable_planes, check_robot
 from .solve import solve_length
 
-__all__ = ["LENGTH_WRT", "LengthPartials", "LengthSensitivity", "length_jacobian",
-           "length_partials"]
+__all__ = ["LENGTH_WRT", "LengthPartials", "LengthSensitivity", "SpanPartials",
+           "length_jacobian", "length_partials", "span_partials"]
 
 FloatArray = NDArray[np.float64]
 
@@ -82,6 +82,40 @@ class LengthPartials:
     converged: NDArray[np.bool_]
 
 
+@dataclass(frozen=True)
+class SpanPartials:
+    """Derivatives of an elastic catenary's spans at fixed end forces ``(H, V_B)`` and
+    unstretched length ``L0`` (module notes), each of the cables' shape.
+
+    Attributes
+    ----------
+    x_w, z_w : ndarray
+        By the weight per length (m per N/m).
+    x_c, z_c : ndarray
+        By the axial compliance ``c = 1 / EA`` (m per 1/N).
+    """
+
+    x_w: FloatArray
+    z_w: FloatArray
+    x_c: FloatArray
+    z_c: FloatArray
+
+
+def span_partials(H: ArrayLike, V_B: ArrayLike, L0: ArrayLike, w: float,
+                  EA: float = np.inf) -> SpanPartials:
+    """:class:`SpanPartials` of catenaries with end forces ``H``, ``V_B`` (N), length
+    ``L0`` (m), weight per length ``w`` (N/m, > 0) and axial stiffness ``EA`` (N)."""
+    H, V_B, L0 = (np.asarray(a, dtype=float) for a in (H, V_B, L0))
+    c = float(axial_compliance(np.asarray(EA, dtype=float)))
+    _, z, _, _, _, x_inext, T_A, _ = evaluate(H, V_B, L0, w, c)
+    V_A = V_B - w * L0
+    with np.errstate(all="ignore"):
+        z_inext = z - c * (V_B * L0 - 0.5 * w * L0 * L0)
+        x_w = -x_inext / w + L0 * H / (w * T_A)
+        z_w = -z_inext / w + L0 * V_A / (w * T_A) - 0.5 * c * L0 * L0
+    return SpanPartials(x_w, z_w, H * L0, V_B * L0 - 0.5 * w * L0 * L0)
+
+
 def length_partials(x: ArrayLike, z: ArrayLike, T: ArrayLike, w: float,
                     EA: float = np.inf) -> LengthPartials:
     """:class:`LengthPartials` of taut catenaries with spans ``x`` (>= 0), ``z`` (m) and
@@ -91,20 +125,15 @@ def length_partials(x: ArrayLike, z: ArrayLike, T: ArrayLike, w: float,
     sol = solve_length(x, z, T, w, EA, "B", compiled=False)
     H, V_B, L0 = sol.H, sol.V_B, sol.L0
     c = float(axial_compliance(np.asarray(EA, dtype=float)))
-    _, _, F_xx, F_xz, F_zz, x_c, T_A, _ = evaluate(H, V_B, L0, w, c)
+    F_xx, F_xz, F_zz = evaluate(H, V_B, L0, w, c)[2:5]
     x_L, z_L = length_derivative(H, V_B, L0, w, EA)
-    V_A = V_B - w * L0
-    with np.errstate(all="ignore"):
-        z_c = z - c * (V_B * L0 - 0.5 * w * L0 * L0)
-        x_w = -x_c / w + L0 * H / (w * T_A)
-        z_w = -z_c / w + L0 * V_A / (w * T_A) - 0.5 * c * L0 * L0
+    part = span_partials(H, V_B, L0, w, EA)
     J_u = np.stack([np.stack([F_xx, F_xz, x_L], -1), np.stack([F_xz, F_zz, z_L], -1),
                     np.stack([2 * H, 2 * V_B, np.zeros_like(H)], -1)], -2)
     zero = np.zeros_like(H)
     # Columns: x_t, z_t, T, w, c.
-    J_q = np.stack([np.stack([-np.ones_like(H), zero, zero, x_w, H * L0], -1),
-                    np.stack([zero, -np.ones_like(H), zero, z_w, V_B * L0 - 0.5 * w * L0 * L0],
-                             -1),
+    J_q = np.stack([np.stack([-np.ones_like(H), zero, zero, part.x_w, part.x_c], -1),
+                    np.stack([zero, -np.ones_like(H), zero, part.z_w, part.z_c], -1),
                     np.stack([zero, zero, -2 * T, zero, zero], -1)], -2)
     ok = np.asarray(sol.converged, dtype=bool) & np.isfinite(J_u).all(axis=(-2, -1))
     du = np.full(J_q.shape, np.nan)
