@@ -17,6 +17,8 @@ A :class:`tension_opt.CableRobot` whose cables sag (built on ``tension_opt``):
   ``catenary.pulleys``;
 - ``catenary.sensitivity``: derivatives of the thesis convention's lengths by the pose,
   the tensions, the cable weight and ``EA`` (:func:`length_jacobian`);
+- ``catenary.coupled_sensitivity``: derivatives of the coupled model's tensions and
+  lengths (:func:`coupled_jacobian`);
 - ``catenary.coupled``: the coupled model's sequential convex programming;
 - ``catenary.forward``: sag-aware forward kinematics (:func:`forward_kinematics`);
 - ``catenary.margin``: the coupled capacity margin (:func:`coupled_margin`);
@@ -45,6 +47,7 @@ from pathlib import Path
 from tension_opt import compiled_cache
 
 from . import warmup as warmup  # registers its kernel families with tension_opt's warm-up
+from .coupled_sensitivity import CoupledSensitivity, coupled_jacobian
 from .elastic import (
     flexibility,
     length_derivative,
@@ -106,6 +109,7 @@ __all__ = [
     "CableMaterial",
     "CatenaryCurves",
     "CatenaryError",
+    "CoupledSensitivity",
     "CurveDistance",
     "ForcesResult",
     "ForwardKinematicsResult",
@@ -127,6 +131,7 @@ __all__ = [
     "cable_clearance",
     "cable_properties",
     "compliance_ellipsoid",
+    "coupled_jacobian",
     "coupled_margin",
     "curve_distance",
     "deflection",

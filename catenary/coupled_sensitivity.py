@@ -1,31 +1,40 @@
 """Sensitivities of the coupled sag model: tensions and lengths of catenaries whose end
 forces balance the load (:func:`catenary.inverse_kinematics`, ``model="coupled"``).
 
-At a solution of the coupled model with the minimum-sum objective, each cable ``i``
-hangs as an elastic catenary with end forces ``(H_i, V_Bi)`` and unstretched length
-``L0_i``. The solution is a vertex of the model's (curved) feasible set: as many
-bounds active as the robot has redundant cables (``r = m - n``). Then the ``3 m``
-unknowns ``u = (H, V_B, L0)`` solve ``3 m`` equations ``G(u, q) = 0``:
+A solution of the coupled model with the minimum-sum objective is a point
+``u = (H, V_B, L0)`` (each cable's end forces and unstretched length, ``3 m``
+unknowns) that minimises ``f(u) = sum_i T_A,i`` (the tensions at the platform)
+subject to
 
-- the two spans of every catenary equal its chord's (``2 m``);
+- the two spans of every catenary equal its chord's (``2 m`` equations);
 - the cables' end forces on the platform, ``H_i e_h,i + (V_Bi - w L0_i) e_z`` with
   their moments, balance the load ``b`` (``n``);
-- each active bound holds: the cable's lowest tension is ``t_min`` or its highest
-  ``t_max`` (``r``; :func:`catenary.geometry.extreme_tensions`).
+- each cable's lowest tension is at least ``t_min`` and its highest at most ``t_max``
+  (:func:`catenary.geometry.extreme_tensions`); the bounds the solution is on are
+  equations.
 
-By the implicit function theorem ``du/dq = -G_u^-1 G_q``, for ``q`` the pose, the
-external wrench, the weight per length or ``EA``. ``G_u`` uses the catenary's analytic
-flexibility and length derivative. ``G_q`` uses the chord's analytic derivatives by
-the pose (:func:`tension_opt.robot.derivatives.vector_derivatives`), the load's
-(:func:`~tension_opt.robot.derivatives.pose_derivatives`) and the spans' partials
-by the cable (:func:`catenary.sensitivity.span_partials`). The tensions at the platform
-(``T_A``) and at the drawing point (``T_B``) follow.
+Unlike the straight model, its optimum is often inside the bounds: the equilibrium
+manifold is curved, so the minimum sum can lie between vertices (the study robot's
+poses mostly do). Its derivatives by a parameter ``q`` (the pose, the external
+wrench, the weight per length, ``EA``) come from the KKT conditions
+``grad f + G_u' lambda = 0``, ``G = 0`` differentiated at the solution's active set:
 
-The vertex is checked by its multipliers. They solve ``G_u' lambda = -grad f`` for the
-objective ``f = sum_i T_A,i``, and each active bound's multiplier must have the sign
-of a binding bound (strict complementarity). A pose with fewer or more active bounds,
-or with a bound's multiplier near zero, has no derivative this way. It gets
-``"not_vertex"`` or ``"degenerate"`` and NaN.
+    [ H_L   G_u' ] [ du      ]     [ d(grad_u L)/dq ]
+    [ G_u   0    ] [ dlambda ] = - [ dG/dq          ]
+
+with ``H_L`` the Hessian of the Lagrangian ``L = f + lambda' G``. The first
+derivatives are analytic: the catenary's flexibility and length derivative, the chord's
+derivatives by the pose (:func:`tension_opt.robot.derivatives.vector_derivatives`) and
+the load's (:func:`~tension_opt.robot.derivatives.pose_derivatives`), and the spans'
+partials by the cable (:func:`catenary.sensitivity.span_partials`). The second
+derivatives of the spans, of the tensions and by the cable's parameters are central
+differences of those analytic first derivatives (a relative step of
+:data:`SECOND_STEP`; about 1e-10 relative), and the equilibrium's cross terms by the
+pose are analytic. ``lambda`` solves the stationarity at the solution in least squares.
+A residual above :data:`STATIONARITY_TOL` marks the pose ``"not_optimal"``. An active
+bound whose multiplier is near zero, or a singular system, marks it ``"degenerate"``:
+there the derivative is one-sided or not unique. The tensions at the platform
+(``T_A``) and at the drawing point (``T_B``) follow from ``du``.
 """
 
 from __future__ import annotations
@@ -55,6 +64,10 @@ COUPLED_WRT = ("pose", "wrench", "weight_per_length", "EA")
 BOUND_TOL = 1e-7
 #: Smallest size of an active bound's multiplier (per unit of the objective).
 MULTIPLIER_TOL = 1e-6
+#: Largest stationarity residual of the multipliers, relative to the objective's gradient.
+STATIONARITY_TOL = 1e-6
+#: Relative step of the central differences of the first derivatives.
+SECOND_STEP = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,7 +84,7 @@ class CoupledSensitivity:
         Of the unstretched lengths (m per unit of ``wrt``).
     status : ndarray of str, shape (N,)
         ``"ok"``; ``"not_converged"`` (the coupled model found no solution);
-        ``"not_vertex"`` (not as many active bounds as redundant cables);
+        ``"not_optimal"`` (no multipliers make the solution stationary);
         ``"degenerate"`` (an active bound's multiplier near zero, or a singular system).
     wrt : str
         ``D`` is ``n`` for ``"pose"`` and ``"wrench"``, 1 for ``"weight_per_length"``
@@ -133,43 +146,104 @@ def coupled_jacobian(robot: CableRobot, poses: ArrayLike, wrt: str,
     N, m = result.lengths.shape
     n = robot.dof
     D = n if wrt in ("pose", "wrench") else 1
-    system = _System(robot, p, result, w, EA)
     status = np.where(result.status == "converged", "ok", "not_converged").astype(object)
-    status[(status == "ok") & ~system.vertex] = "not_vertex"
-    status[(status == "ok") & ~system.strict] = "degenerate"
     out = [np.full((N, m, D), np.nan) for _ in range(3)]
     rows = np.flatnonzero(status == "ok")
     if len(rows):
-        du = -np.linalg.solve(system.G_u[rows], system.G_q(wrt, rows))   # (k, 3m, D)
-        dH, dV_B, dL0 = du[:, :m], du[:, m:2 * m], du[:, 2 * m:]
-        H, V_B, L0 = (a[rows][..., None] for a in (system.H, system.V_B, system.L0))
-        V_A = V_B - w * L0
-        dV_A = dV_B - w * dL0 - (L0 if wrt == "weight_per_length" else 0.0)
-        out[0][rows] = (H * dH + V_B * dV_B) / np.hypot(H, V_B)
-        out[1][rows] = (H * dH + V_A * dV_A) / np.hypot(H, V_A)
-        out[2][rows] = dL0
+        kkt = _Kkt(robot, p[rows], result, rows, w, EA)
+        status[rows[kkt.code == 1]] = "not_optimal"
+        status[rows[kkt.code == 2]] = "degenerate"
+        good = kkt.code == 0
+        if good.any():
+            rhs = kkt.rhs(wrt)[good]
+            du = -np.linalg.solve(kkt.K[good], rhs)[:, :3 * m]               # (k, 3m, D)
+            dH, dV_B, dL0 = du[:, :m], du[:, m:2 * m], du[:, 2 * m:]
+            H, V_B, L0 = (a[good][..., None] for a in (kkt.H, kkt.V_B, kkt.L0))
+            V_A = V_B - w * L0
+            dV_A = dV_B - w * dL0 - (L0 if wrt == "weight_per_length" else 0.0)
+            at = rows[good]
+            out[0][at] = (H * dH + V_B * dV_B) / np.hypot(H, V_B)
+            out[1][at] = (H * dH + V_A * dV_A) / np.hypot(H, V_A)
+            out[2][at] = dL0
     return CoupledSensitivity(out[0], out[1], out[2], status.astype(str), wrt)
 
 
-class _System:
-    """The equations ``G(u, q) = 0`` of a batch of coupled solutions and their
-    derivatives by the unknowns (``G_u``, (N, 3m, 3m)) and by a parameter."""
+def _first(H: FloatArray, V_B: FloatArray, L0: FloatArray, w: float, c: float
+           ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Gradients by ``(H, V_B, L0)`` (..., 3) of each cable's spans ``x``, ``z`` and its
+    tensions ``T_A``, ``T_B``: the pieces whose differences give the second derivatives."""
+    EA = np.inf if c == 0.0 else 1.0 / c
+    with np.errstate(all="ignore"):
+        F_xx, F_xz, F_zz = evaluate(H, V_B, L0, w, c)[2:5]
+        x_L, z_L = length_derivative(H, V_B, L0, w, EA)
+        V_A = V_B - w * L0
+        T_A, T_B = np.hypot(H, V_A), np.hypot(H, V_B)
+        g_A = np.stack([H / T_A, V_A / T_A, -w * V_A / T_A], -1)
+        g_B = np.stack([H / T_B, V_B / T_B, np.zeros_like(H)], -1)
+    return (np.stack([F_xx, F_xz, x_L], -1), np.stack([F_xz, F_zz, z_L], -1), g_A, g_B)
+
+
+class _Kkt:
+    """The KKT system of a batch of coupled solutions at their active sets (module
+    notes): ``K`` (k, S, S) over ``[du (3m), lambda_span (2m), y (n), lambda_bound (m)]``,
+    an inactive bound's row holding its multiplier at zero; ``code`` (k,) 0 ok,
+    1 not stationary, 2 degenerate."""
 
     def __init__(self, robot: CableRobot, poses: FloatArray, result: InverseKinematicsResult,
-                 w: float, EA: float) -> None:
+                 rows: NDArray[np.intp], w: float, EA: float) -> None:
         self.robot, self.poses, self.w, self.EA = robot, poses, w, EA
-        N, m = result.lengths.shape
+        self.c = float(axial_compliance(np.asarray(EA, dtype=float)))
+        k, m = len(rows), robot.m
         self.rows_w = list(robot.wrench_rows)
         n = len(self.rows_w)
-        self.planes = cable_planes(robot, poses)
-        self.H = np.nan_to_num(result.horizontal_tensions, nan=1.0)
-        self.L0 = np.nan_to_num(result.lengths, nan=1.0)
-        V_A = np.nan_to_num(result.platform_forces[..., 2], nan=0.0)
+        self.m, self.n = m, n
+        planes = cable_planes(robot, poses)
+        self.e_h, self.x, self.arms = planes.e_h, planes.x, planes.arms
+        self.H = result.horizontal_tensions[rows]
+        self.L0 = result.lengths[rows]
+        V_A = result.platform_forces[rows, :, 2]
         self.V_B = V_A + w * self.L0
-        c = float(axial_compliance(np.asarray(EA, dtype=float)))
+        g_x, g_z, g_A, g_B = _first(self.H, self.V_B, self.L0, w, self.c)
+        # Which bound each cable is on (0 none), and the gradient of that extreme tension.
+        self.kind, g_bound = self._bounds(V_A, g_A, g_B)
+        active = self.kind != 0
+        S = 6 * m + n
+        self.S = S
+        K = np.zeros((k, S, S))
+        G = np.zeros((k, 2 * m + n + m, 3 * m))   # constraint gradients by u
+        i = np.arange(m)
+        for block in range(3):
+            G[:, i, block * m + i] = g_x[..., block]
+            G[:, m + i, block * m + i] = g_z[..., block]
+            G[:, 2 * m + n + i, block * m + i] = g_bound[..., block] * active
+        e_z = np.broadcast_to(np.array([0.0, 0.0, 1.0]), self.e_h.shape)
+        for block, force in ((0, self.e_h), (1, e_z), (2, -w * e_z)):
+            G[:, 2 * m:2 * m + n, block * m:(block + 1) * m] = self._wrench(force)
+        grad_f = np.concatenate([g_A[..., 0], g_A[..., 1], g_A[..., 2]], axis=1)
+        # Multipliers: least squares of G' lambda = -grad f (inactive bounds' columns 0).
+        lam = -np.einsum("krj,kj->kr", np.linalg.pinv(np.swapaxes(G, 1, 2)), grad_f)
+        residual = np.abs(np.einsum("kji,kj->ki", G, lam) + grad_f).max(axis=1)
+        self.lam = lam
+        K[:, :3 * m, :3 * m] = self._hessian(lam, active)
+        K[:, :3 * m, 3 * m:] = np.swapaxes(G, 1, 2)
+        K[:, 3 * m:, :3 * m] = G
+        K[:, 5 * m + n + i, 5 * m + n + i] = (~active).astype(float)
+        self.K = K
+        lam_b = lam[:, 2 * m + n:]
+        binding = np.where(self.kind < 0, -lam_b, np.where(self.kind > 0, lam_b, np.inf))
+        strict = (binding > MULTIPLIER_TOL).all(axis=1)
         with np.errstate(all="ignore"):
-            F_xx, F_xz, F_zz = evaluate(self.H, self.V_B, self.L0, w, c)[2:5]
-            x_L, z_L = length_derivative(self.H, self.V_B, self.L0, w, EA)
+            cond = np.linalg.cond(K)
+        code = np.zeros(k, dtype=np.int8)
+        code[~(residual <= STATIONARITY_TOL * np.abs(grad_f).max(axis=1))] = 1
+        code[(code == 0) & ~(strict & (cond < 1e12))] = 2
+        self.code = code
+
+    def _bounds(self, V_A: FloatArray, g_A: FloatArray, g_B: FloatArray
+                ) -> tuple[NDArray[np.int8], FloatArray]:
+        """Per cable, -1 on ``t_min``, +1 on ``t_max``, 0 on neither, and the gradient
+        (k, m, 3) of the extreme tension that is on it."""
+        robot, m = self.robot, self.m
         H, V_B = self.H, self.V_B
         T_A, T_B = np.hypot(H, V_A), np.hypot(H, V_B)
         dip = (V_A < 0) & (V_B > 0)
@@ -178,129 +252,147 @@ class _System:
         t_min = np.broadcast_to(np.asarray(robot.t_min, dtype=float), (m,))
         t_max = np.broadcast_to(np.asarray(robot.t_max, dtype=float), (m,))
         on_min = np.abs(low - t_min) <= BOUND_TOL * np.maximum(t_min, 1.0)
-        on_max = np.isfinite(t_max) & (np.abs(high - t_max) <= BOUND_TOL * t_max)
-        self.vertex = (on_min | on_max).sum(axis=1) == m - n
-        G = np.zeros((N, 3 * m, 3 * m))
-        i = np.arange(m)
-        G[:, i, i], G[:, i, m + i], G[:, i, 2 * m + i] = F_xx, F_xz, x_L
-        G[:, m + i, i], G[:, m + i, m + i], G[:, m + i, 2 * m + i] = F_xz, F_zz, z_L
-        # Equilibrium: dF_i = e_h dH + e_z dV_B - w e_z dL0, with its moment.
-        e_z = np.broadcast_to(np.array([0.0, 0.0, 1.0]), self.planes.e_h.shape)
-        for block, force in ((0, self.planes.e_h), (1, e_z), (2, -w * e_z)):
-            G[:, 2 * m:2 * m + n, block * m:(block + 1) * m] = self._wrench(force)
-        # Active bounds: d(extreme tension) by (H, V_B, L0), V_A = V_B - w L0.
-        k = np.zeros(N, dtype=int)
-        grad_f = np.zeros((N, 3 * m))
-        grad_f[:, :m], grad_f[:, m:2 * m], grad_f[:, 2 * m:] = H / T_A, V_A / T_A, -w * V_A / T_A
-        sides = np.zeros((N, m))
-        for cable in range(m):
-            for active, which, sign in ((on_min[:, cable], low, -1.0),
-                                        (on_max[:, cable], high, 1.0)):
-                use = active & self.vertex & (k < m - n)
-                if not use.any():
-                    continue
-                row = 2 * m + n + k[use]
-                a = np.flatnonzero(use)
-                at_A = np.isclose(which[use, cable], T_A[use, cable], rtol=0, atol=0)
-                only_H = dip[use, cable] & (which is low)
-                T_end = np.where(at_A, T_A[use, cable], T_B[use, cable])
-                V_end = np.where(at_A, V_A[use, cable], V_B[use, cable])
-                G[a, row, cable] = np.where(only_H, 1.0, H[use, cable] / T_end)
-                G[a, row, m + cable] = np.where(only_H, 0.0, V_end / T_end)
-                G[a, row, 2 * m + cable] = np.where(only_H | ~at_A, 0.0, -w * V_end / T_end)
-                sides[a, cable] = sign
-                k[use] += 1
-        self.G_u = G
-        self.active = sides
-        ok = self.vertex & np.isfinite(G).all(axis=(1, 2))
-        self.strict = ok.copy()
-        if ok.any():
-            cond = np.linalg.cond(G[ok])
-            lam = np.full((N, 3 * m), np.nan)
-            good = np.flatnonzero(ok)[cond < 1e12]
-            G_t = np.swapaxes(G[good], 1, 2)
-            lam[good] = -np.linalg.solve(G_t, grad_f[good][..., None])[..., 0]
-            bound = lam[:, 2 * m + n:]
-            # The active bounds in the order of their rows: a lower bound binds with
-            # a negative multiplier, an upper one with a positive.
-            order = np.where(sides != 0, sides, np.nan)
-            signs = np.array([row[~np.isnan(row)] for row in order[good]]).reshape(
-                len(good), -1)
-            self.strict[:] = False
-            self.strict[good] = (signs * bound[good] > MULTIPLIER_TOL).all(axis=1)
+        on_max = np.isfinite(t_max) & (np.abs(high - t_max) <= BOUND_TOL * t_max) & ~on_min
+        kind = np.where(on_min, -1, np.where(on_max, 1, 0)).astype(np.int8)
+        g_H = np.zeros_like(g_A)
+        g_H[..., 0] = 1.0
+        low_at_A = (T_A <= T_B)[..., None]
+        g_low = np.where(dip[..., None], g_H, np.where(low_at_A, g_A, g_B))
+        g_high = np.where(low_at_A, g_B, g_A)
+        return kind, np.where(on_min[..., None], g_low, g_high)
 
     def _wrench(self, force: FloatArray) -> FloatArray:
-        """The wrench rows (N, n, m) of per-cable forces (N, m, 3) at the attachments."""
-        full = np.concatenate([force, np.cross(self.planes.arms, force)], axis=-1)
+        """The wrench rows (k, n, m) of per-cable forces (k, m, 3) at the attachments."""
+        full = np.concatenate([force, np.cross(self.arms, force)], axis=-1)
         return np.swapaxes(full[..., self.rows_w], 1, 2)
 
-    def G_q(self, wrt: str, rows: NDArray[np.intp]) -> FloatArray:
-        """``dG / dq`` (k, 3m, D) of the poses ``rows``."""
-        w = self.w
-        m, n = self.H.shape[1], len(self.rows_w)
-        k = len(rows)
-        H, V_B, L0 = self.H[rows], self.V_B[rows], self.L0[rows]
+    def _pieces_by(self, which: int, step: FloatArray) -> list[FloatArray]:
+        """Central differences of :func:`_first`'s pieces along unknown ``which`` (0 H,
+        1 V_B, 2 L0) of every cable, over ``step`` (k, m)."""
+        u = [self.H, self.V_B, self.L0]
+        plus, minus = list(u), list(u)
+        plus[which], minus[which] = u[which] + step, u[which] - step
+        hi = _first(plus[0], plus[1], plus[2], self.w, self.c)
+        lo = _first(minus[0], minus[1], minus[2], self.w, self.c)
+        return [(a - b) / (2 * step[..., None]) for a, b in zip(hi, lo, strict=True)]
+
+    def _weights(self, lam: FloatArray, active: NDArray[np.bool_]) -> list[FloatArray]:
+        """The multipliers (k, m) that weigh :func:`_first`'s four pieces in the
+        Lagrangian: the spans', and the objective's plus the active bound's on T_A, T_B."""
+        m, n = self.m, self.n
+        lam_b = np.where(active, lam[:, 2 * m + n:], 0.0)
+        V_A = self.V_B - self.w * self.L0
+        T_A, T_B = np.hypot(self.H, V_A), np.hypot(self.H, self.V_B)
+        lower = (self.kind < 0) & ~((V_A < 0) & (self.V_B > 0))  # a dip bounds H, linear
+        upper = self.kind > 0
+        on_A = (lower & (T_A <= T_B)) | (upper & (T_A > T_B))
+        on_B = (lower & (T_A > T_B)) | (upper & (T_A <= T_B))
+        return [lam[:, :m], lam[:, m:2 * m], 1.0 + np.where(on_A, lam_b, 0.0),
+                np.where(on_B, lam_b, 0.0)]
+
+    def _hessian(self, lam: FloatArray, active: NDArray[np.bool_]) -> FloatArray:
+        """``H_L`` (k, 3m, 3m): block diagonal by cable, by differences of the pieces."""
+        k, m = self.H.shape
+        out = np.zeros((k, 3 * m, 3 * m))
+        weights = self._weights(lam, active)
+        i = np.arange(m)
+        scales = (np.hypot(self.H, self.V_B), np.hypot(self.H, self.V_B), self.L0)
+        for col in range(3):
+            diffs = self._pieces_by(col, SECOND_STEP * scales[col])
+            block = np.sum([wt[..., None] * d for wt, d in zip(weights, diffs, strict=True)],
+                           axis=0)
+            for row in range(3):
+                out[:, row * m + i, col * m + i] = block[..., row]
+        return 0.5 * (out + np.swapaxes(out, 1, 2))
+
+    def rhs(self, wrt: str) -> FloatArray:
+        """The right-hand sides (k, S, D): ``d(grad_u L)/dq`` over ``dG/dq``."""
+        m, n = self.m, self.n
+        k = len(self.H)
         if wrt == "wrench":  # G holds W - b with b = -(w_g + wrench)
-            out = np.zeros((k, 3 * m, n))
-            out[:, 2 * m:2 * m + n] = np.eye(n)
+            out = np.zeros((k, self.S, n))
+            out[:, 5 * m:5 * m + n] = np.eye(n)
             return out
-        if wrt in ("weight_per_length", "EA"):
-            part = span_partials(H, V_B, L0, w, self.EA)
-            out = np.zeros((k, 3 * m, 1))
-            if wrt == "weight_per_length":
-                out[:, :m, 0], out[:, m:2 * m, 0] = part.x_w, part.z_w
-                e_z = np.zeros((k, m, 3))
-                e_z[..., 2] = -L0
-                out[:, 2 * m:2 * m + n, 0] = self._wrench_of(e_z, rows).sum(axis=2)
-                # An active bound at end A moves with V_A = V_B - w L0.
-                out[:, 2 * m + n:, 0] = self._bound_by_w(rows)
-                return out
-            c = float(axial_compliance(np.asarray(self.EA, dtype=float)))
-            out[:, :m, 0], out[:, m:2 * m, 0] = -c * c * part.x_c, -c * c * part.z_c
-            return out
-        return self._by_pose(rows)
+        if wrt == "pose":
+            return self._by_pose()
+        return self._by_cable(wrt)
 
-    def _wrench_of(self, force: FloatArray, rows: NDArray[np.intp]) -> FloatArray:
-        arms = self.planes.arms[rows]
-        full = np.concatenate([force, np.cross(arms, force)], axis=-1)
-        return np.swapaxes(full[..., self.rows_w], 1, 2)
+    def _by_cable(self, wrt: str) -> FloatArray:
+        """By the weight per length or ``EA`` (k, S, 1): central differences of the
+        Lagrangian's gradient and of the constraints in the parameter."""
+        m, n = self.m, self.n
+        k = len(self.H)
+        out = np.zeros((k, self.S, 1))
+        if wrt == "EA" and self.c == 0.0:
+            return out  # an inextensible cable: d/dEA = -c^2 d/dc = 0
+        active = self.kind != 0
+        weights = self._weights(self.lam, active)
+        base = self.w if wrt == "weight_per_length" else self.c
+        h = SECOND_STEP * base
+        pieces = []
+        for value in (base + h, base - h):
+            w, c = (value, self.c) if wrt == "weight_per_length" else (self.w, value)
+            pieces.append(_first(self.H, self.V_B, self.L0, w, c))
+        grad = np.sum([wt[..., None] * (a - b) / (2 * h)
+                       for wt, a, b in zip(weights, pieces[0], pieces[1], strict=True)],
+                      axis=0)
+        y = self.lam[:, 2 * m:2 * m + n]
+        part = span_partials(self.H, self.V_B, self.L0, self.w, self.EA)
+        if wrt == "weight_per_length":
+            # d(dW/dL0)/dw = -[e_z; r x e_z], weighed by y.
+            e_z = np.zeros((k, m, 3))
+            e_z[..., 2] = -1.0
+            grad[..., 2] += np.einsum("knm,kn->km", self._wrench(e_z), y)
+            out[:, 3 * m:4 * m, 0], out[:, 4 * m:5 * m, 0] = part.x_w, part.z_w
+            e_z[..., 2] = -self.L0
+            out[:, 5 * m:5 * m + n, 0] = self._wrench(e_z).sum(axis=2)
+            bound = self.K[:, 5 * m + n:, 2 * m:3 * m]  # -w V_A / T_A on end-A rows
+            out[:, 5 * m + n:, 0] = np.einsum("krc,kc->kr", bound, self.L0) / self.w
+        else:
+            grad = grad * (-self.c * self.c)  # d/dEA = -c^2 d/dc
+            out[:, 3 * m:4 * m, 0] = -self.c * self.c * part.x_c
+            out[:, 4 * m:5 * m, 0] = -self.c * self.c * part.z_c
+        out[:, :3 * m, 0] = np.concatenate([grad[..., 0], grad[..., 1], grad[..., 2]], axis=1)
+        return out
 
-    def _bound_by_w(self, rows: NDArray[np.intp]) -> FloatArray:
-        """``d(extreme tension) / dw`` (k, m - n) of the active bounds' rows: an end-A
-        tension moves with ``V_A = V_B - w L0``, whose ``L0`` column is ``-w V_A / T_A``,
-        so its ``w`` derivative is that entry times ``L0 / w``."""
-        m, n = self.H.shape[1], len(self.rows_w)
-        by_length = self.G_u[rows, 2 * m + n:, 2 * m:]                     # (k, r, m)
-        return np.einsum("krc,kc->kr", by_length, self.L0[rows]) / self.w
-
-    def _by_pose(self, rows: NDArray[np.intp]) -> FloatArray:
-        robot, p = self.robot, self.poses[rows]
-        m, n = self.H.shape[1], len(self.rows_w)
-        k = len(rows)
-        pl = self.planes
-        e_h, x, arms = pl.e_h[rows], pl.x[rows], pl.arms[rows]
+    def _by_pose(self) -> FloatArray:
+        """By the pose (k, S, n): the chords' motion in the span rows, the forces' and
+        arms' in the equilibrium rows and, weighed by ``y``, in the gradient rows."""
+        robot, p = self.robot, self.poses
+        m, n = self.m, self.n
+        k = len(p)
+        e_h, x, arms = self.e_h, self.x, self.arms
         dv = vector_derivatives(robot, p)                                 # (k, m, 3, n)
         # The reference point's motion: the vector of an attachment at the origin.
         origin = robot.with_(attachments=np.zeros_like(robot.attachments))
         dpos = -vector_derivatives(origin, p)[:, 0]                       # (k, 3, n)
         darm = -dv - dpos[:, None]                                        # d(R a_i)
-        out = np.zeros((k, 3 * m, n))
-        out[:, :m] = -np.einsum("kmi,kmij->kmj", e_h, dv)                 # -dx_i
-        out[:, m:2 * m] = -dv[:, :, 2, :]                                 # -dz_i
-        # dF_i = H de_h, de_h = (I - e_h e_h') dv_h / x (horizontal).
         proj = np.eye(3)[None, None] - e_h[..., :, None] * e_h[..., None, :]
         proj[..., 2, :] = 0.0
         proj[..., :, 2] = 0.0
         with np.errstate(all="ignore"):
-            de_h = np.einsum("kmab,kmbj->kmaj", proj, dv) / x[..., None, None]
-        de_h = np.nan_to_num(de_h)
-        H, V_A = self.H[rows], self.V_B[rows] - self.w * self.L0[rows]
-        force = H[..., None] * e_h
+            de_h = np.nan_to_num(np.einsum("kmab,kmbj->kmaj", proj, dv) / x[..., None, None])
+        e_z = np.broadcast_to(np.array([0.0, 0.0, 1.0])[:, None], (k, m, 3, n))
+
+        def wrench_rows(force: FloatArray, dforce: FloatArray) -> FloatArray:
+            """d[f; r x f] (k, m, n_rows, n) of forces ``force`` (k, m, 3) moving by
+            ``dforce`` (k, m, 3, n) with their arms."""
+            moment = (np.cross(darm, force[..., :, None], axisa=2, axisb=2, axisc=2)
+                      + np.cross(arms[..., :, None], dforce, axisa=2, axisb=2, axisc=2))
+            return np.concatenate([dforce, moment], axis=2)[:, :, self.rows_w]
+
+        V_A = self.V_B - self.w * self.L0
+        force = self.H[..., None] * e_h
         force[..., 2] += V_A
-        dforce = H[..., None, None] * de_h                                # (k, m, 3, n)
-        dmoment = (np.cross(darm, force[..., :, None], axisa=2, axisb=2, axisc=2)
-                   + np.cross(arms[..., :, None], dforce, axisa=2, axisb=2, axisc=2))
-        full = np.concatenate([dforce, dmoment], axis=2)[:, :, self.rows_w]   # (k, m, n, n)
+        out = np.zeros((k, self.S, n))
+        y = self.lam[:, 2 * m:2 * m + n]
+        # Gradient rows: y . d(dW/du_i)/dq; dW/dL0 = -w dW/dV_B.
+        by_H = np.einsum("kmrj,kr->kmj", wrench_rows(e_h, de_h), y)
+        by_V = np.einsum("kmrj,kr->kmj", wrench_rows(e_z[..., 0], np.zeros_like(dv)), y)
+        out[:, :3 * m] = np.concatenate([by_H, by_V, -self.w * by_V], axis=1)
+        out[:, 3 * m:4 * m] = -np.einsum("kmi,kmij->kmj", e_h, dv)        # -dx_i
+        out[:, 4 * m:5 * m] = -dv[:, :, 2, :]                             # -dz_i
         _, db = pose_derivatives(robot, p)
-        out[:, 2 * m:2 * m + n] = full.sum(axis=1) - db
+        dforce = self.H[..., None, None] * de_h
+        out[:, 5 * m:5 * m + n] = wrench_rows(force, dforce).sum(axis=1) - db
         return out
