@@ -59,7 +59,8 @@ __all__ = ["COUPLED_WRT", "CoupledSensitivity", "coupled_jacobian"]
 FloatArray = NDArray[np.float64]
 
 #: What :func:`coupled_jacobian` differentiates by.
-COUPLED_WRT = ("pose", "wrench", "weight_per_length", "EA")
+COUPLED_WRT = ("pose", "wrench", "weight_per_length", "EA", "drawing_points",
+               "attachment_points")
 #: Relative distance within which a cable's extreme tension is on its bound.
 BOUND_TOL = 1e-7
 #: Smallest size of an active bound's multiplier (per unit of the objective).
@@ -88,7 +89,9 @@ class CoupledSensitivity:
         ``"degenerate"`` (an active bound's multiplier near zero, or a singular system).
     wrt : str
         ``D`` is ``n`` for ``"pose"`` and ``"wrench"``, 1 for ``"weight_per_length"``
-        and ``"EA"``.
+        and ``"EA"``; for ``"drawing_points"`` (base frame) and ``"attachment_points"``
+        (platform frame) the arrays are (N, m, m, 3), ``[k, a, i, c]`` the derivative
+        of cable ``a``'s value by coordinate ``c`` of cable ``i``'s point (per m).
     """
 
     tensions: FloatArray
@@ -114,7 +117,7 @@ def coupled_jacobian(robot: CableRobot, poses: ArrayLike, wrt: str,
     robot : CableRobot
         With cable properties (weight per length > 0), without guide pulleys.
     poses : array_like, shape (N, n) or (n,)
-    wrt : {"pose", "wrench", "weight_per_length", "EA"}
+    wrt : {"pose", "wrench", "weight_per_length", "EA", "drawing_points", "attachment_points"}
     wrench : array_like, optional
         The external wrench (N, N m), as in :func:`catenary.inverse_kinematics`.
     result : InverseKinematicsResult, optional
@@ -145,7 +148,7 @@ def coupled_jacobian(robot: CableRobot, poses: ArrayLike, wrt: str,
         raise InvalidCableError("result must be the coupled model's solution of these poses")
     N, m = result.lengths.shape
     n = robot.dof
-    D = n if wrt in ("pose", "wrench") else 1
+    D = {"pose": n, "wrench": n, "drawing_points": 3 * m, "attachment_points": 3 * m}.get(wrt, 1)
     status = np.where(result.status == "converged", "ok", "not_converged").astype(object)
     out = [np.full((N, m, D), np.nan) for _ in range(3)]
     rows = np.flatnonzero(status == "ok")
@@ -165,6 +168,8 @@ def coupled_jacobian(robot: CableRobot, poses: ArrayLike, wrt: str,
             out[0][at] = (H * dH + V_B * dV_B) / np.hypot(H, V_B)
             out[1][at] = (H * dH + V_A * dV_A) / np.hypot(H, V_A)
             out[2][at] = dL0
+    if D == 3 * m and wrt.endswith("points"):
+        out = [o.reshape(N, m, m, 3) for o in out]
     return CoupledSensitivity(out[0], out[1], out[2], status.astype(str), wrt)
 
 
@@ -199,6 +204,7 @@ class _Kkt:
         self.m, self.n = m, n
         planes = cable_planes(robot, poses)
         self.e_h, self.x, self.arms = planes.e_h, planes.x, planes.arms
+        self.rotation = np.asarray(planes.rotation)
         self.H = result.horizontal_tensions[rows]
         self.L0 = result.lengths[rows]
         V_A = result.platform_forces[rows, :, 2]
@@ -315,6 +321,8 @@ class _Kkt:
             return out
         if wrt == "pose":
             return self._by_pose()
+        if wrt in ("drawing_points", "attachment_points"):
+            return self._by_points(wrt)
         return self._by_cable(wrt)
 
     def _by_cable(self, wrt: str) -> FloatArray:
@@ -356,27 +364,49 @@ class _Kkt:
         return out
 
     def _by_pose(self) -> FloatArray:
-        """By the pose (k, S, n): the chords' motion in the span rows, the forces' and
-        arms' in the equilibrium rows and, weighed by ``y``, in the gradient rows."""
+        """By the pose (k, S, n)."""
         robot, p = self.robot, self.poses
-        m, n = self.m, self.n
-        k = len(p)
-        e_h, x, arms = self.e_h, self.x, self.arms
         dv = vector_derivatives(robot, p)                                 # (k, m, 3, n)
         # The reference point's motion: the vector of an attachment at the origin.
         origin = robot.with_(attachments=np.zeros_like(robot.attachments))
         dpos = -vector_derivatives(origin, p)[:, 0]                       # (k, 3, n)
-        darm = -dv - dpos[:, None]                                        # d(R a_i)
+        _, db = pose_derivatives(robot, p)
+        return self._by_geometry(dv, -dv - dpos[:, None], db)
+
+    def _by_points(self, wrt: str) -> FloatArray:
+        """By the drawing points (base frame) or the attachment points (platform frame),
+        (k, S, 3m), column ``3 i + c`` for coordinate ``c`` of cable ``i``: a cable's
+        points move its own chord (and its arm) only."""
+        k, m = self.H.shape
+        dv = np.zeros((k, m, 3, 3 * m))
+        darm = np.zeros_like(dv)
+        for i in range(m):
+            if wrt == "drawing_points":
+                dv[:, i, :, 3 * i:3 * i + 3] = np.eye(3)
+            else:  # v = D - p - R a, arm = R a
+                dv[:, i, :, 3 * i:3 * i + 3] = -self.rotation
+                darm[:, i, :, 3 * i:3 * i + 3] = self.rotation
+        return self._by_geometry(dv, darm, np.zeros((k, self.n, 3 * m)))
+
+    def _by_geometry(self, dv: FloatArray, darm: FloatArray, db: FloatArray) -> FloatArray:
+        """The right-hand sides (k, S, D) of a motion of the chords ``dv`` (k, m, 3, D),
+        of the arms ``darm`` (same shape) and of the load ``db`` (k, n, D): the span
+        rows, the forces' and arms' motion in the equilibrium rows and, weighed by
+        ``y``, in the gradient rows."""
+        m, n = self.m, self.n
+        k, D = len(dv), dv.shape[-1]
+        e_h, x, arms = self.e_h, self.x, self.arms
         proj = np.eye(3)[None, None] - e_h[..., :, None] * e_h[..., None, :]
         proj[..., 2, :] = 0.0
         proj[..., :, 2] = 0.0
         with np.errstate(all="ignore"):
             de_h = np.nan_to_num(np.einsum("kmab,kmbj->kmaj", proj, dv) / x[..., None, None])
-        e_z = np.broadcast_to(np.array([0.0, 0.0, 1.0])[:, None], (k, m, 3, n))
+        e_z = np.zeros((k, m, 3))
+        e_z[..., 2] = 1.0
 
         def wrench_rows(force: FloatArray, dforce: FloatArray) -> FloatArray:
-            """d[f; r x f] (k, m, n_rows, n) of forces ``force`` (k, m, 3) moving by
-            ``dforce`` (k, m, 3, n) with their arms."""
+            """d[f; r x f] (k, m, n_rows, D) of forces ``force`` (k, m, 3) moving by
+            ``dforce`` (k, m, 3, D) with their arms."""
             moment = (np.cross(darm, force[..., :, None], axisa=2, axisb=2, axisc=2)
                       + np.cross(arms[..., :, None], dforce, axisa=2, axisb=2, axisc=2))
             return np.concatenate([dforce, moment], axis=2)[:, :, self.rows_w]
@@ -384,15 +414,14 @@ class _Kkt:
         V_A = self.V_B - self.w * self.L0
         force = self.H[..., None] * e_h
         force[..., 2] += V_A
-        out = np.zeros((k, self.S, n))
+        out = np.zeros((k, self.S, D))
         y = self.lam[:, 2 * m:2 * m + n]
         # Gradient rows: y . d(dW/du_i)/dq; dW/dL0 = -w dW/dV_B.
         by_H = np.einsum("kmrj,kr->kmj", wrench_rows(e_h, de_h), y)
-        by_V = np.einsum("kmrj,kr->kmj", wrench_rows(e_z[..., 0], np.zeros_like(dv)), y)
+        by_V = np.einsum("kmrj,kr->kmj", wrench_rows(e_z, np.zeros_like(dv)), y)
         out[:, :3 * m] = np.concatenate([by_H, by_V, -self.w * by_V], axis=1)
         out[:, 3 * m:4 * m] = -np.einsum("kmi,kmij->kmj", e_h, dv)        # -dx_i
         out[:, 4 * m:5 * m] = -dv[:, :, 2, :]                             # -dz_i
-        _, db = pose_derivatives(robot, p)
         dforce = self.H[..., None, None] * de_h
         out[:, 5 * m:5 * m + n] = wrench_rows(force, dforce).sum(axis=1) - db
         return out

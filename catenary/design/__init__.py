@@ -3,23 +3,18 @@ a multi-start optimiser over them (guide: ``docs/guides/design.md``).
 
 - :mod:`catenary.design.space`: :class:`DesignSpace` and its variables (drawing and
   attachment points, cable diameter, winch ``t_max``);
-- :mod:`catenary.design.criteria`: peak tension, tension energy, workspace volume, sag
-  correction, cable mass, lowest natural frequency;
+- :mod:`catenary.design.criteria`: peak tension, tension energy, workspace volume (and
+  how every criterion is smoothed and differentiated); :mod:`catenary.design.lengths`:
+  sag correction, cable mass; :mod:`catenary.design.cable_criteria`: the cable's
+  strength, the lowest natural frequency; :mod:`catenary.design.base`: their common
+  ground;
 - :mod:`catenary.design.optimize`: :func:`optimize_design`.
 """
 
-from .criteria import (
-    CableMass,
-    CableStrength,
-    Criterion,
-    CriterionValue,
-    LowestFrequency,
-    PeakTension,
-    SagCorrection,
-    TensionEnergy,
-    WorkspaceCoverage,
-    soft_max,
-)
+from .base import Criterion, CriterionValue, soft_max
+from .cable_criteria import CableStrength, LowestFrequency
+from .criteria import PeakTension, TensionEnergy, WorkspaceCoverage
+from .lengths import CableMass, SagCorrection
 from .optimize import DesignConstraint, DesignResult, optimize_design
 from .space import (
     DesignSpace,
