@@ -36,7 +36,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 from scipy.special import expit
 
 from tension_opt import CableRobot
@@ -56,10 +56,13 @@ from .base import (
     unheld,
 )
 from .cable_weight import HalfWeight
+from .coupled_demand import Demand, coupled_demand
 from .space import RobotGradient
 from .tension_margin import TensionMargins, tension_margins
 
 __all__ = ["PeakTension", "TensionEnergy", "WorkspaceCoverage"]
+
+FloatArray = NDArray[np.float64]
 
 
 class PeakTension(OverPoses):
@@ -71,7 +74,8 @@ class PeakTension(OverPoses):
     path : array_like, shape (N, n)
         Poses (m, rad).
     objective : str or TensionProblem
-        The tension distribution (default ``"min_norm"``, smooth).
+        The tension distribution (default ``"min_norm"``, smooth; ``"min_sum"`` for the
+        coupled model).
     temperature : float, optional
         Of the log-sum-exp (N, or a ratio for ``relative``); default 1 % of the robot's
         weight (N), or 0.01.
@@ -80,29 +84,41 @@ class PeakTension(OverPoses):
     cable_weight : bool
         Carry the cables' weight by the half-weight model (module notes): half of
         each cable's weight on the platform, the tension at the drawing point.
+    model : {"straight", "coupled"}
+        ``"coupled"``: the coupled catenary model's tensions at the drawing points
+        (:func:`catenary.inverse_kinematics`, minimum sum), differentiated by
+        :func:`catenary.coupled_jacobian`; the cables' weight is then exact and
+        ``cable_weight`` does not apply.
     """
 
-    def __init__(self, path: ArrayLike, objective: Any = "min_norm",
+    def __init__(self, path: ArrayLike, objective: Any = None,
                  temperature: float | None = None, relative: bool = False,
-                 cable_weight: bool = False) -> None:
-        super().__init__(path, objective, "path")
+                 cable_weight: bool = False, model: str = "straight") -> None:
+        if model not in ("straight", "coupled"):
+            raise InvalidDesignError(f"model must be 'straight' or 'coupled', got {model!r}")
+        if model == "coupled" and objective not in (None, "min_sum"):
+            raise InvalidDesignError("the coupled model is differentiated at its minimum-sum "
+                                     "solution: objective='min_sum' (the default there)")
+        default = "min_sum" if model == "coupled" else "min_norm"
+        super().__init__(path, default if objective is None else objective, "path")
         self.temperature = None if temperature is None else positive(temperature,
-                                                                        "temperature")
+                                                                       "temperature")
         self.relative = bool(relative)
         self.cable_weight = bool(cable_weight)
+        self.model = model
         self.name = "peak load ratio" if relative else "peak tension"
         self.unit = "" if relative else "N"
 
     def evaluate(self, robot: CableRobot) -> CriterionValue:
         P = robot.as_poses(self.poses)
-        half = HalfWeight(robot, P) if self.cable_weight else None
-        state = solve_tensions(unbounded(robot), P, self.objective,
-                          None if half is None else half.wrench)
         m = robot.m
-        infeasible = int((~state.optimal).sum())
-        if infeasible:
-            return unheld(m, infeasible)
-        load = state.tensions if half is None else state.tensions + half.half_height
+        if self.model == "coupled":
+            demand = coupled_demand(robot, P)
+        else:
+            demand = _straight_demand(robot, P, self.objective, self.cable_weight)
+        if demand.infeasible:
+            return unheld(m, demand.infeasible)
+        load = demand.tensions
         t_max = np.broadcast_to(np.asarray(robot.t_max, dtype=float), (m,))
         if self.relative:
             if not np.isfinite(t_max).all():
@@ -111,14 +127,28 @@ class PeakTension(OverPoses):
             load = load / t_max
         tau = self.temperature or (0.01 if self.relative else 0.01 * robot.weight)
         value, weights = soft_max(load, tau)
-        g = weights / t_max if self.relative else weights
-        grad = through_tensions(state, g, half)
-        if half is not None:
-            grad = grad + half.height_gradient(g)
+        grad = demand.gradient(weights / t_max if self.relative else weights)
         if self.relative:
             grad = grad + RobotGradient(np.zeros((m, 3)), np.zeros((m, 3)), 0.0,
                                         -(weights * load).sum(axis=0) / t_max)
-        return CriterionValue(value, float(load.max()), grad, int((~state.ok).sum()))
+        return CriterionValue(value, float(load.max()), grad, demand.skipped)
+
+
+def _straight_demand(robot: CableRobot, P: FloatArray, objective: Any,
+                     cable_weight: bool) -> Demand:
+    """The tensions the straight model's distribution demands at the drawing points,
+    the cables' half weights added with ``cable_weight``."""
+    half = HalfWeight(robot, P) if cable_weight else None
+    state = solve_tensions(unbounded(robot), P, objective,
+                           None if half is None else half.wrench)
+    infeasible = int((~state.optimal).sum())
+    load = state.tensions if half is None else state.tensions + half.half_height
+
+    def gradient(g: FloatArray) -> RobotGradient:
+        grad = through_tensions(state, g, half)
+        return grad if half is None else grad + half.height_gradient(g)
+
+    return Demand(load, gradient, int((~state.ok).sum()), infeasible)
 
 
 class TensionEnergy(OverPoses):
