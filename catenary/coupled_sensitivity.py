@@ -69,6 +69,8 @@ MULTIPLIER_TOL = 1e-6
 STATIONARITY_TOL = 1e-6
 #: Relative step of the central differences of the first derivatives.
 SECOND_STEP = 1e-6
+#: Poses per chunk of KKT systems (bounds the memory of large batches).
+CHUNK = 512
 
 
 @dataclass(frozen=True, eq=False)
@@ -151,23 +153,25 @@ def coupled_jacobian(robot: CableRobot, poses: ArrayLike, wrt: str,
     D = {"pose": n, "wrench": n, "drawing_points": 3 * m, "attachment_points": 3 * m}.get(wrt, 1)
     status = np.where(result.status == "converged", "ok", "not_converged").astype(object)
     out = [np.full((N, m, D), np.nan) for _ in range(3)]
-    rows = np.flatnonzero(status == "ok")
-    if len(rows):
+    ok_rows = np.flatnonzero(status == "ok")
+    # In chunks: a pose's KKT matrix is (6m + n)^2 numbers (23 kB for 8 cables).
+    for rows in np.array_split(ok_rows, -(-len(ok_rows) // CHUNK)) if len(ok_rows) else []:
         kkt = _Kkt(robot, p[rows], result, rows, w, EA)
         status[rows[kkt.code == 1]] = "not_optimal"
         status[rows[kkt.code == 2]] = "degenerate"
         good = kkt.code == 0
-        if good.any():
-            rhs = kkt.rhs(wrt)[good]
-            du = -np.linalg.solve(kkt.K[good], rhs)[:, :3 * m]               # (k, 3m, D)
-            dH, dV_B, dL0 = du[:, :m], du[:, m:2 * m], du[:, 2 * m:]
-            H, V_B, L0 = (a[good][..., None] for a in (kkt.H, kkt.V_B, kkt.L0))
-            V_A = V_B - w * L0
-            dV_A = dV_B - w * dL0 - (L0 if wrt == "weight_per_length" else 0.0)
-            at = rows[good]
-            out[0][at] = (H * dH + V_B * dV_B) / np.hypot(H, V_B)
-            out[1][at] = (H * dH + V_A * dV_A) / np.hypot(H, V_A)
-            out[2][at] = dL0
+        if not good.any():
+            continue
+        rhs = kkt.rhs(wrt)[good]
+        du = -np.linalg.solve(kkt.K[good], rhs)[:, :3 * m]                   # (k, 3m, D)
+        dH, dV_B, dL0 = du[:, :m], du[:, m:2 * m], du[:, 2 * m:]
+        H, V_B, L0 = (a[good][..., None] for a in (kkt.H, kkt.V_B, kkt.L0))
+        V_A = V_B - w * L0
+        dV_A = dV_B - w * dL0 - (L0 if wrt == "weight_per_length" else 0.0)
+        at = rows[good]
+        out[0][at] = (H * dH + V_B * dV_B) / np.hypot(H, V_B)
+        out[1][at] = (H * dH + V_A * dV_A) / np.hypot(H, V_A)
+        out[2][at] = dL0
     if D == 3 * m and wrt.endswith("points"):
         out = [o.reshape(N, m, m, 3) for o in out]
     return CoupledSensitivity(out[0], out[1], out[2], status.astype(str), wrt)

@@ -136,3 +136,13 @@ def test_statuses_and_errors() -> None:
         coupled_jacobian(robot, STUDY_POSES, "pose", result=thesis)
     with pytest.raises(InvalidCableError, match="pulleys"):
         coupled_jacobian(robot.with_(pulleys=[to.Pulley(0.3)] * 4), STUDY_POSES, "pose")
+
+
+def test_chunks_give_the_same_answer(monkeypatch: pytest.MonkeyPatch) -> None:
+    robot = to.presets.algae_harvester()
+    got = solve(robot, STUDY_POSES)
+    whole = coupled_jacobian(robot, STUDY_POSES, "pose", result=got)
+    monkeypatch.setattr("catenary.coupled_sensitivity.CHUNK", 2)
+    parts = coupled_jacobian(robot, STUDY_POSES, "pose", result=got)
+    np.testing.assert_array_equal(parts.status, whole.status)
+    np.testing.assert_allclose(parts.tensions, whole.tensions, rtol=1e-12)
