@@ -91,6 +91,8 @@ ACTIVE_TOL = 1e-5
 MULTIPLIER_TOL = 1e-5
 #: Largest 1-norm condition number of a KKT matrix taken as nonsingular.
 COND_MAX = 1e10
+#: Poses per chunk of KKT systems (bounds the memory of large batches).
+CHUNK = 16384
 NEEDS_ROBOT = ("pose", "drawing_points", "attachment_points")
 
 
@@ -179,30 +181,30 @@ def tension_jacobian(
     idx = np.flatnonzero(solved)
     shape = jacobian_shape(wrt, N, m, form.n)
     jac = np.full(shape, np.nan)
-    if len(idx):
+    # In chunks: a pose's KKT matrix and its inverse hold 2 (2k + n + g)^2 numbers.
+    for chunk in np.array_split(idx, -(-len(idx) // CHUNK)) if len(idx) else []:
         frames = None
         if wrt in NEEDS_ROBOT:
             assert robot is not None and p is not None
-            frames = cable_frames(robot, p[idx])
-            if not np.allclose(frames.A, form.A[idx], rtol=1e-9, atol=1e-12):
+            frames = cable_frames(robot, p[chunk])
+            if not np.allclose(frames.A, form.A[chunk], rtol=1e-9, atol=1e-12):
                 raise InvalidInputError(
                     "robot and poses do not give the structure matrices of the solution: "
                     "pass the robot and poses that were solved"
                 )
-        every = len(idx) == N
-        sub = slice(None) if every else idx
+        sub = slice(None) if len(chunk) == N else chunk
         kkt = KktSystem(form, batch, solution, sub)
         extra: Any = None
         if wrt == "pose":
             assert robot is not None and p is not None
-            extra = pose_derivatives(robot, p[idx], frames)
+            extra = pose_derivatives(robot, p[chunk], frames)
         elif wrt in ("drawing_points", "attachment_points"):
             assert robot is not None and p is not None
-            extra = column_derivatives(robot, p[idx], wrt, frames)
+            extra = column_derivatives(robot, p[chunk], wrt, frames)
         local, status = kkt.derivative(wrt, extra, ~solution.unique[sub])
-        jac[sub] = local.reshape((len(idx), *shape[1:]))
+        jac[sub] = local.reshape((len(chunk), *shape[1:]))
         code[sub] = status
-        jac[code != _OK] = np.nan
+    jac[code != _OK] = np.nan
     return Sensitivity(jac, np.asarray(SENSITIVITY_STATUSES)[code], wrt)
 
 

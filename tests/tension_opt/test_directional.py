@@ -165,3 +165,4 @@ def test_bad_directions_are_refused(direction: object) -> None:
     sol = to.distribute(robot, [[5.0, -3.0, 2.0]], "min_norm")
     with pytest.raises(InvalidInputError, match="direction"):
         sol.directional_derivative("wrench", direction)
+

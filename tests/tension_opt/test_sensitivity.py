@@ -433,3 +433,17 @@ def test_previous_of_a_smoothed_path_is_each_poses_own_partial():
                     for sign in (1.0, -1.0)]
             fd[:, j] = (ends[0] - ends[1]) / (2 * h)
         np.testing.assert_allclose(J.jacobian[k], fd, atol=1e-8)
+
+
+def test_jacobian_chunks_give_the_same_answer(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Large batches are differentiated in chunks: the same Jacobians and statuses."""
+    robot = to.presets.cogiro()
+    rng = np.random.default_rng(5)
+    poses = np.column_stack([rng.uniform(-2, 2, (9, 2)), rng.uniform(1.5, 2.5, 9),
+                             rng.uniform(-0.1, 0.1, (9, 3))])
+    sol = to.distribute(robot, poses, "min_norm")
+    whole = sol.jacobian("pose", robot=robot, poses=poses)
+    monkeypatch.setattr("tension_opt.distribution.sensitivity.CHUNK", 4)
+    parts = sol.jacobian("pose", robot=robot, poses=poses)
+    np.testing.assert_array_equal(parts.status, whole.status)
+    np.testing.assert_allclose(parts.jacobian, whole.jacobian, rtol=1e-12, atol=1e-9)
