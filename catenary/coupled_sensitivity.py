@@ -39,6 +39,7 @@ there the derivative is one-sided or not unique. The tensions at the platform
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -54,7 +55,7 @@ from .geometry import cable_data, cable_planes, check_robot
 from .inverse import InverseKinematicsResult, inverse_kinematics
 from .sensitivity import span_partials
 
-__all__ = ["COUPLED_WRT", "CoupledSensitivity", "coupled_jacobian"]
+__all__ = ["COUPLED_WRT", "CoupledSensitivity", "coupled_jacobian", "coupled_jacobians"]
 
 FloatArray = NDArray[np.float64]
 
@@ -136,8 +137,18 @@ def coupled_jacobian(robot: CableRobot, poses: ArrayLike, wrt: str,
         For an unknown ``wrt``, weightless cables, a robot with pulleys, or a result of
         another model.
     """
-    if wrt not in COUPLED_WRT:
-        raise InvalidCableError(f"wrt must be one of {COUPLED_WRT}, got {wrt!r}")
+    return coupled_jacobians(robot, poses, (wrt,), wrench, result=result, **options)[wrt]
+
+
+def coupled_jacobians(robot: CableRobot, poses: ArrayLike, wrts: Sequence[str],
+                      wrench: ArrayLike | None = None, *,
+                      result: InverseKinematicsResult | None = None,
+                      **options: Any) -> dict[str, CoupledSensitivity]:
+    """:func:`coupled_jacobian` by several parameters ``wrts`` at once, each pose's KKT
+    system built and factored once; a dict by ``wrt``."""
+    for wrt in wrts:
+        if wrt not in COUPLED_WRT:
+            raise InvalidCableError(f"wrt must be one of {COUPLED_WRT}, got {wrt!r}")
     check_robot(robot)
     w, EA = cable_data(robot)
     if not w > 0:
@@ -150,9 +161,10 @@ def coupled_jacobian(robot: CableRobot, poses: ArrayLike, wrt: str,
         raise InvalidCableError("result must be the coupled model's solution of these poses")
     N, m = result.lengths.shape
     n = robot.dof
-    D = {"pose": n, "wrench": n, "drawing_points": 3 * m, "attachment_points": 3 * m}.get(wrt, 1)
+    sizes = {wrt: {"pose": n, "wrench": n, "drawing_points": 3 * m,
+                   "attachment_points": 3 * m}.get(wrt, 1) for wrt in wrts}
     status = np.where(result.status == "converged", "ok", "not_converged").astype(object)
-    out = [np.full((N, m, D), np.nan) for _ in range(3)]
+    out = {wrt: [np.full((N, m, D), np.nan) for _ in range(3)] for wrt, D in sizes.items()}
     ok_rows = np.flatnonzero(status == "ok")
     # In chunks: a pose's KKT matrix is (6m + n)^2 numbers (23 kB for 8 cables).
     for rows in np.array_split(ok_rows, -(-len(ok_rows) // CHUNK)) if len(ok_rows) else []:
@@ -162,19 +174,27 @@ def coupled_jacobian(robot: CableRobot, poses: ArrayLike, wrt: str,
         good = kkt.code == 0
         if not good.any():
             continue
-        rhs = kkt.rhs(wrt)[good]
-        du = -np.linalg.solve(kkt.K[good], rhs)[:, :3 * m]                   # (k, 3m, D)
-        dH, dV_B, dL0 = du[:, :m], du[:, m:2 * m], du[:, 2 * m:]
+        rhs = np.concatenate([kkt.rhs(wrt)[good] for wrt in wrts], axis=2)
+        du_all = -np.linalg.solve(kkt.K[good], rhs)[:, :3 * m]          # (k, 3m, sum D)
         H, V_B, L0 = (a[good][..., None] for a in (kkt.H, kkt.V_B, kkt.L0))
         V_A = V_B - w * L0
-        dV_A = dV_B - w * dL0 - (L0 if wrt == "weight_per_length" else 0.0)
         at = rows[good]
-        out[0][at] = (H * dH + V_B * dV_B) / np.hypot(H, V_B)
-        out[1][at] = (H * dH + V_A * dV_A) / np.hypot(H, V_A)
-        out[2][at] = dL0
-    if D == 3 * m and wrt.endswith("points"):
-        out = [o.reshape(N, m, m, 3) for o in out]
-    return CoupledSensitivity(out[0], out[1], out[2], status.astype(str), wrt)
+        start = 0
+        for wrt in wrts:
+            du = du_all[..., start:start + sizes[wrt]]
+            start += sizes[wrt]
+            dH, dV_B, dL0 = du[:, :m], du[:, m:2 * m], du[:, 2 * m:]
+            dV_A = dV_B - w * dL0 - (L0 if wrt == "weight_per_length" else 0.0)
+            out[wrt][0][at] = (H * dH + V_B * dV_B) / np.hypot(H, V_B)
+            out[wrt][1][at] = (H * dH + V_A * dV_A) / np.hypot(H, V_A)
+            out[wrt][2][at] = dL0
+    done = {}
+    for wrt, arrays in out.items():
+        if wrt.endswith("points"):
+            arrays = [a.reshape(N, m, m, 3) for a in arrays]
+        done[wrt] = CoupledSensitivity(arrays[0], arrays[1], arrays[2],
+                                       status.astype(str), wrt)
+    return done
 
 
 def _first(H: FloatArray, V_B: FloatArray, L0: FloatArray, w: float, c: float

@@ -40,7 +40,10 @@ class CableStrength(Criterion):
         self.material = material
 
     def with_material(self, material: str | None) -> Criterion:
-        return self if material is None else CableStrength(self.safety, material)
+        """Bound to the space's ``material`` unless a material was given here."""
+        if material is None or self.material is not None:
+            return self
+        return CableStrength(self.safety, material)
 
     def evaluate(self, robot: CableRobot) -> CriterionValue:
         if self.material is None or robot.cable is None:
@@ -52,6 +55,9 @@ class CableStrength(Criterion):
             raise InvalidDesignError(f"the catalogue knows no rope strength of "
                                      f"{self.material!r}: choose another material")
         t_max = np.broadcast_to(np.asarray(robot.t_max, dtype=float), (robot.m,))
+        if not np.isfinite(t_max).all():
+            raise InvalidDesignError("CableStrength needs finite t_max on every winch: "
+                                     "robot.with_(t_max=...)")
         top = int(np.argmax(t_max))
         value = self.safety * float(t_max[top]) / strength
         d_t = np.zeros(robot.m)
@@ -81,6 +87,8 @@ class LowestFrequency(Criterion):
     def __init__(self, poses: ArrayLike, model: str = "coupled",
                  temperature: float = 0.01) -> None:
         self.poses = checked_poses(poses, "poses")
+        if model not in ("coupled", "straight"):
+            raise InvalidDesignError(f"model must be 'coupled' or 'straight', got {model!r}")
         self.model = model
         self.temperature = positive(temperature, "temperature")
 

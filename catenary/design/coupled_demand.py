@@ -4,8 +4,8 @@ in the coupled catenary model (:class:`catenary.design.criteria.PeakTension` wit
 
 The coupled model's minimum-sum tensions at the drawing points
 (:func:`catenary.inverse_kinematics`) are differentiated by
-:func:`catenary.coupled_jacobian` by the drawing points, the attachment points, the
-weight per length and ``EA``. The cable diameter moves both of the last two:
+:func:`catenary.coupled_sensitivity.coupled_jacobians` by the drawing points, the
+attachment points, the weight per length and ``EA``. The cable diameter moves both of the last two:
 ``w`` and ``EA`` scale with ``d^2``.
 """
 
@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from tension_opt import CableRobot
 
-from ..coupled_sensitivity import coupled_jacobian
+from ..coupled_sensitivity import coupled_jacobians
 from ..geometry import cable_data
 from ..inverse import inverse_kinematics
 from .base import unbounded
@@ -64,8 +64,8 @@ def coupled_demand(robot: CableRobot, poses: FloatArray) -> Demand:
     m = robot.m
     if infeasible:
         return Demand(solved.tensions, lambda g: RobotGradient.zeros(m), 0, infeasible)
-    jac = {wrt: coupled_jacobian(free, poses, wrt, result=solved)
-           for wrt in ("drawing_points", "attachment_points", "weight_per_length", "EA")}
+    jac = coupled_jacobians(free, poses, ("drawing_points", "attachment_points",
+                                          "weight_per_length", "EA"), result=solved)
     ok = np.logical_and.reduce([j.ok for j in jac.values()])
     d = robot.cable.diameter if robot.cable is not None else 1.0
 

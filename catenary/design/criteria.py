@@ -185,8 +185,9 @@ class WorkspaceCoverage(Criterion):
     made smooth (module notes); maximise it.
 
     Each pose's tension margin ``s`` (:mod:`catenary.design.tension_margin`) is the
-    largest fraction of every cable's half-range that tensions holding the pose keep
-    from both bounds: the pose is feasible exactly where ``s >= 0``. The smooth value is
+    largest fraction of every cable's half-range ``(t_max - t_min) / 2`` that tensions
+    holding the pose keep from both bounds: the pose is feasible exactly where
+    ``s >= 0``. The smooth value is
     ``cell_volume * sum sigma(s / temperature)``, the plain value counts ``s >= 0``.
 
     With ``cable_weight`` (default) the cables weigh by the half-weight model
@@ -198,8 +199,10 @@ class WorkspaceCoverage(Criterion):
     (:func:`tension_opt.workspace.wrench_feasible_workspace`), point for point.
 
     The margins are optimal values of linear programs, differentiated by the envelope
-    theorem through their multipliers; where those are not unique, the gradient is a
-    subgradient.
+    theorem through one optimal pair of tensions and multipliers. Where a grid point's
+    LP has several (a symmetric robot, moved off its symmetry by a variable that breaks
+    it), the gradient is that pair's and can differ from the derivative along such a
+    variable by a few per cent; along variables that keep the symmetry it is exact.
 
     Parameters
     ----------
@@ -235,10 +238,13 @@ class WorkspaceCoverage(Criterion):
         t_min = np.broadcast_to(np.asarray(robot.t_min, dtype=float), (N, m))
         half = HalfWeight(robot, P) if self.cable_weight else None
         A = robot.structure_matrices(P)
+        # Half-ranges of the winches' own bounds, so that the margin stays defined where
+        # the hanging weights close the range (t_max - h < t_min + h: s < 0).
+        d = 0.5 * (t_max - t_min)
         if half is None:
-            return tension_margins(A, robot.required_wrench(P), t_min, t_max), None
+            return tension_margins(A, robot.required_wrench(P), t_min, t_max, d), None
         return tension_margins(A, robot.required_wrench(P, half.wrench),
-                               t_min + half.half_height, t_max - half.half_height), half
+                               t_min + half.half_height, t_max - half.half_height, d), half
 
     def evaluate(self, robot: CableRobot) -> CriterionValue:
         P = robot.as_poses(self.poses)
@@ -254,7 +260,8 @@ class WorkspaceCoverage(Criterion):
                                 column_derivatives(robot, P, "attachment_points"))
         d_up = d_s[:, None] * got.d_upper                                     # (N, m)
         d_lo = d_s[:, None] * got.d_lower
-        grad = RobotGradient(anchors, attachments, 0.0, d_up.sum(axis=0))
+        by_t_max = (d_up + 0.5 * d_s[:, None] * got.d_half).sum(axis=0)       # d = ... / 2
+        grad = RobotGradient(anchors, attachments, 0.0, by_t_max)
         if half is not None:
             # b = -(w_g + wrench): ds/d wrench = d_matrix; the bounds move with w dz / 2.
             grad = grad + half.wrench_gradient(y) + half.height_gradient(d_lo - d_up)

@@ -1,14 +1,16 @@
 """Design optimisation: scipy's gradient methods over a :class:`DesignSpace`, from several
 starts, and over a discrete choice of cable materials.
 
-The variables are scaled to the unit box and the objective and constraints by their
-magnitudes at the base design, so that newtons, metres and cubic metres weigh alike.
+The variables are scaled to the unit box, the objective by its magnitude at each start
+and the constraints by their bounds, so that newtons, metres and cubic metres weigh
+alike.
 Without constraints the method is L-BFGS-B, with them SLSQP; both take the criteria's
 analytic gradients (:mod:`catenary.design.criteria`), and central differences (step
 1e-4 of each box) for a numeric criterion. A design that cannot hold a pose of a
-criterion (no tensions within its bounds) is a point the optimiser must step back
-from: its scaled objective is :data:`PENALTY` and its constraints are violated by as
-much. A start that ends on such a design has status ``"infeasible"``.
+criterion (no tensions within its bounds) has the scaled objective :data:`PENALTY`, its
+constraints are violated by as much, and its gradient is zero: a line search that
+reaches one steps back. A start on such a design does not move and ends
+``"infeasible"``; the other starts go on.
 """
 
 from __future__ import annotations
@@ -36,6 +38,8 @@ FloatArray = NDArray[np.float64]
 #: Relative slack within which a constraint counts as met.
 CONSTRAINT_TOL = 1e-6
 _STEP = 1e-4
+#: Evaluations a start keeps (its last points: a line search and a gradient's probes).
+CACHE_SIZE = 64
 #: Scaled objective (and constraint violation) of a design that cannot hold a pose of a
 #: criterion: far worse than any design that can, so that line searches step back.
 PENALTY = 1e3
@@ -63,6 +67,9 @@ class DesignConstraint:
         for b in (self.lower, self.upper):
             if b is not None and not np.isfinite(b):
                 raise InvalidDesignError(f"constraint bounds must be finite, got {b!r}")
+        if self.lower is not None and self.upper is not None and self.lower > self.upper:
+            raise InvalidDesignError(f"constraint on {self.criterion.name!r}: lower "
+                                     f"{self.lower!r} is above upper {self.upper!r}")
 
     @property
     def magnitude(self) -> float:
@@ -137,6 +144,7 @@ class _Problem:
     evaluations: int = 0
     unholdable: int = 0
     cache: dict[bytes, list[CriterionValue]] = field(default_factory=dict)
+    pinned: dict[bytes, list[CriterionValue]] = field(default_factory=dict)
 
     def x_of(self, u: FloatArray) -> FloatArray:
         lo, up = self.space.lower, self.space.upper
@@ -144,6 +152,8 @@ class _Problem:
 
     def values(self, u: FloatArray) -> list[CriterionValue]:
         key = np.asarray(u, dtype=float).tobytes()
+        if key in self.pinned:
+            return self.pinned[key]
         if key not in self.cache:
             if time.monotonic() > self.deadline:
                 raise _Stop("time_limit", "the time limit was reached")
@@ -152,13 +162,18 @@ class _Problem:
             got = [c.evaluate(robot) for c in self.criteria]
             if not all(np.isfinite(v.value) for v in got):
                 self.unholdable += 1
-            if len(self.cache) > 64:
+            if len(self.cache) >= CACHE_SIZE:
                 self.cache.clear()
             self.cache[key] = got
         return self.cache[key]
 
     def value(self, u: FloatArray, i: int) -> float:
         return self.values(u)[i].value
+
+    def pin(self, u: FloatArray) -> None:
+        """Keep the values at ``u`` past any cache clearing and the deadline (the best
+        point a start met, which its result reports)."""
+        self.pinned[np.asarray(u, dtype=float).tobytes()] = self.values(u)
 
     def holds(self, u: FloatArray) -> bool:
         """Whether every criterion has a value at ``u`` (the design holds its poses)."""
@@ -188,6 +203,24 @@ def _check(space: DesignSpace, objective: Criterion,
     if not isinstance(objective, Criterion):
         raise InvalidDesignError(f"objective must be a Criterion (PeakTension, "
                                  f"WorkspaceCoverage, ...), got {type(objective).__name__}")
+    for c in constraints:
+        if not isinstance(c, DesignConstraint):
+            raise InvalidDesignError(f"constraints must be DesignConstraint(criterion, "
+                                     f"lower=..., upper=...), got {type(c).__name__}")
+
+
+def _check_settings(starts: int, max_iter: int, materials: Sequence[str] | None,
+                    time_limit: float) -> None:
+    for name, value in (("starts", starts), ("max_iter", max_iter)):
+        if not (isinstance(value, int | np.integer) and value >= 1):
+            raise InvalidDesignError(f"{name} must be an int >= 1, got {value!r}")
+    if materials is not None and (isinstance(materials, str) or not len(materials)
+                                  or not all(isinstance(m, str) for m in materials)):
+        raise InvalidDesignError(f"materials must be a non-empty list of catalogue names, "
+                                 f"e.g. ['steel', 'dyneema'], got {materials!r}")
+    if not (np.isfinite(time_limit) and time_limit > 0):
+        raise InvalidDesignError(f"time_limit must be a finite number of seconds > 0, got "
+                                 f"{time_limit!r}")
 
 
 def optimize_design(
@@ -236,11 +269,7 @@ def optimize_design(
     """
     constraints = list(constraints)
     _check(space, objective, constraints)
-    if not (isinstance(starts, int | np.integer) and starts >= 1):
-        raise InvalidDesignError(f"starts must be an int >= 1, got {starts!r}")
-    if not (np.isfinite(time_limit) and time_limit > 0):
-        raise InvalidDesignError(f"time_limit must be a finite number of seconds > 0, got "
-                                 f"{time_limit!r}")
+    _check_settings(starts, max_iter, materials, time_limit)
     t0 = time.monotonic()
     spaces = ([space] if materials is None else [space.with_material(m) for m in materials])
     rng = np.random.default_rng(seed)
@@ -291,6 +320,7 @@ def _run_start(prob: _Problem, constraints: Sequence[DesignConstraint], u0: Floa
         v = sign * prob.value(u, 0) / scale[0]
         if v < best["f"] and _met(prob, constraints, u):
             best.update(u=np.array(u), f=v)
+            prob.pin(best["u"])
         return v
 
     def df(u: FloatArray) -> FloatArray:
@@ -317,7 +347,9 @@ def _run_start(prob: _Problem, constraints: Sequence[DesignConstraint], u0: Floa
                   "max_iter" if res.nit >= max_iter else "failed" if met else "infeasible")
         row.update(u=u, status=status, message=str(res.message), iterations=int(res.nit))
         if status != "converged" and best["u"] is not None:
-            row["u"] = best["u"]  # the best design met on the way
+            # The best design met on the way meets the constraints, unconverged.
+            row["u"] = best["u"]
+            row["status"] = "max_iter" if res.nit >= max_iter else "failed"
     except _Stop as stop:
         u = best["u"]
         row.update(u=u, status=stop.status, message=str(stop), iterations=-1)
@@ -325,11 +357,18 @@ def _run_start(prob: _Problem, constraints: Sequence[DesignConstraint], u0: Floa
         vals = prob.values(row["u"])
         row.update(x=prob.x_of(row["u"]), smooth=vals[0].value, objective=vals[0].plain,
                    feasible=_met(prob, constraints, row["u"]),
-                   **{f"constraint {c.criterion.name}": v.plain
-                      for c, v in zip(constraints, vals[1:], strict=True)})
+                   **{f"constraint {label}": v.plain
+                      for label, v in zip(_labels(constraints), vals[1:], strict=True)})
     else:
         row.update(x=None, smooth=np.nan, objective=np.nan, feasible=False)
     return row
+
+
+def _labels(constraints: Sequence[DesignConstraint]) -> list[str]:
+    """Each constraint's criterion name, numbered where two share a name."""
+    names = [c.criterion.name for c in constraints]
+    return [f"{n} ({names[:i].count(n) + 1})" if names.count(n) > 1 else n
+            for i, n in enumerate(names)]
 
 
 def _met(prob: _Problem, constraints: Sequence[DesignConstraint], u: FloatArray) -> bool:
@@ -351,9 +390,8 @@ def _result(space: DesignSpace, objective: Criterion, constraints: Sequence[Desi
     table = pd.DataFrame(rows).drop(columns=["u"])
     usable = [r for r in rows if r["x"] is not None and r["feasible"]]
     if not usable:
-        worst = rows[0]
-        status = worst["status"] if worst["status"] in ("time_limit", "infeasible") else \
-            "infeasible"
+        status = ("time_limit" if any(r["status"] == "time_limit" for r in rows)
+                  else "infeasible")
         x = space.x0
         return DesignResult(x, space.names, space.robot_at(x), np.nan, np.nan, {}, status,
                             space.material, table, evaluations, seconds)
@@ -363,6 +401,6 @@ def _result(space: DesignSpace, objective: Criterion, constraints: Sequence[Desi
     chosen = space.with_material(best["material"]) if best["material"] else space
     return DesignResult(np.asarray(best["x"]), space.names, chosen.robot_at(best["x"]),
                         float(best["objective"]), float(best["smooth"]),
-                        {c.criterion.name: float(best[f"constraint {c.criterion.name}"])
-                         for c in constraints},
+                        {label: float(best[f"constraint {label}"])
+                         for label in _labels(constraints)},
                         best["status"], best["material"], table, evaluations, seconds)

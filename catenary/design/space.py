@@ -77,14 +77,29 @@ class DesignVariable:
                                      f"> 0 N, got {lo!r}")
         if self.kind != "diameter" and not self.entries:
             raise InvalidDesignError(f"variable {self.name!r} sets no cable: give cables")
-        if any(f == 0 or not np.isfinite(f) for _, _, f in self.entries):
-            raise InvalidDesignError(f"variable {self.name!r}: factors must be finite and "
-                                     "nonzero")
+        if self.kind == "diameter" and self.entries:
+            raise InvalidDesignError(f"variable {self.name!r}: a diameter sets every cable, "
+                                     "give no entries (cable_diameter(lower, upper))")
+        for cable, axis, factor in self.entries:
+            if not (isinstance(cable, int | np.integer) and isinstance(axis, int | np.integer)
+                    and 0 <= axis <= 2):
+                raise InvalidDesignError(f"variable {self.name!r}: entries are (cable, axis, "
+                                         f"factor) with integer cable and axis 0..2, got "
+                                         f"{(cable, axis, factor)!r}")
+            if factor == 0 or not np.isfinite(factor):
+                raise InvalidDesignError(f"variable {self.name!r}: factors must be finite "
+                                         "and nonzero")
+            if self.kind == "t_max" and (axis != 0 or factor <= 0):
+                raise InvalidDesignError(f"variable {self.name!r}: a t_max entry is (cable, "
+                                         "0, factor > 0) (winch_t_max)")
 
 
 def _entries(cables: int | Sequence[int], axis: int | str | None,
              factors: Sequence[float] | None, name: str) -> tuple[tuple[int, int, float], ...]:
     cable_list = [cables] if isinstance(cables, int | np.integer) else list(cables)
+    if not all(isinstance(c, int | np.integer) for c in cable_list):
+        raise InvalidDesignError(f"variable {name!r}: cables must be integer indices, got "
+                                 f"{cables!r}")
     if axis is None:
         ax = 0
     elif axis in _AXES:

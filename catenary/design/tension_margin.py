@@ -1,22 +1,24 @@
 """The tension margin of a batch of poses and its derivatives, as one sparse LP.
 
 For a pose with structure matrix ``A`` (n, m), required wrench ``b`` and tension bounds
-``t_min <= T <= t_up`` (per winch), the margin is
+``t_lo <= T <= t_up`` (per winch), the margin is
 
-    s* = max s   subject to   A T = b,   t_min + s d <= T <= t_up - s d,
+    s* = max s   subject to   A T = b,   t_lo + s d <= T <= t_up - s d,
 
-with ``d = (t_up - t_min) / 2``: the largest fraction of each cable's half-range that
-the tensions can keep from both bounds. ``s* = 1`` puts every cable in the middle of its
-range; the pose is wrench-feasible exactly where ``s* >= 0``; below zero, ``-s*`` is how
-far (in half-ranges) the bounds would have to widen. Unlike a feasibility flag it moves
-smoothly with the design, across the lower bounds as across the upper ones.
+with ``d`` a positive half-range per cable (by default ``(t_up - t_lo) / 2``): the
+largest fraction of it that the tensions can keep from both bounds. ``s* = 1`` puts
+every cable in the middle of its range; the pose is wrench-feasible exactly where
+``s* >= 0``; below zero, ``-s*`` is how far (in half-ranges) the bounds would have to
+widen. Unlike a feasibility flag it moves smoothly with the design, across the lower
+bounds as across the upper ones, and it stays defined where the bounds cross
+(``t_lo > t_up``: then ``s* < 0``).
 
 The poses' LPs are independent, so they are solved as one block-diagonal LP by HiGHS
 (the sum of the margins is maximised, which maximises each). Its multipliers give the
 derivatives of each ``s*`` by the envelope theorem: by a matrix entry through
 ``-marginal * (row's change at the optimum)``, by a bound through its row's marginal.
-Where the multipliers are not unique (a degenerate optimum) HiGHS returns one set, so
-the derivative is one subgradient there.
+They are those of the optimal pair HiGHS returns; where an LP has several, they can
+differ from the derivative.
 """
 
 from __future__ import annotations
@@ -49,7 +51,10 @@ class TensionMargins:
     d_matrix : ndarray, shape (N, n)
         ``y`` with ``d s* = y' (dA) T`` for a change ``dA`` of the structure matrix.
     d_upper, d_lower : ndarray, shape (N, m)
-        ``d s* / d t_up`` and ``d s* / d t_min`` (1/N); ``d s* / d b = -d_matrix``.
+        ``d s* / d t_up`` and ``d s* / d t_lo`` at fixed half-ranges (1/N);
+        ``d s* / d b = -d_matrix``.
+    d_half : ndarray, shape (N, m)
+        ``d s* / d d`` (1/N).
     solved : ndarray of bool, shape (N,)
     """
 
@@ -58,16 +63,17 @@ class TensionMargins:
     d_matrix: FloatArray
     d_upper: FloatArray
     d_lower: FloatArray
+    d_half: FloatArray
     solved: NDArray[np.bool_]
 
 
-def _block_lp(A: FloatArray, b: FloatArray, t_min: FloatArray, t_up: FloatArray
+def _block_lp(A: FloatArray, b: FloatArray, t_min: FloatArray, t_up: FloatArray,
+              half: FloatArray
               ) -> tuple[FloatArray, coo_matrix, FloatArray, coo_matrix, FloatArray]:
     """The block-diagonal LP of the poses: ``c``, ``A_ub``, ``b_ub``, ``A_eq``, ``b_eq``
     over the variables ``[T_k (m), s_k]`` of each pose ``k``."""
     N, n, m = A.shape
     v = m + 1
-    half = 0.5 * (t_up - t_min)                                  # (N, m)
     c = np.zeros(N * v)
     c[m::v] = -1.0
     k = np.arange(N)
@@ -89,10 +95,10 @@ def _block_lp(A: FloatArray, b: FloatArray, t_min: FloatArray, t_up: FloatArray
     return c, A_ub, b_ub, A_eq, b.ravel()
 
 
-def _solve(A: FloatArray, b: FloatArray, t_min: FloatArray, t_up: FloatArray
-           ) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+def _solve(A: FloatArray, b: FloatArray, t_min: FloatArray, t_up: FloatArray,
+           half: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray] | None:
     """Solution and marginals (equalities, inequalities) of the batch's LP, or None."""
-    c, A_ub, b_ub, A_eq, b_eq = _block_lp(A, b, t_min, t_up)
+    c, A_ub, b_ub, A_eq, b_eq = _block_lp(A, b, t_min, t_up, half)
     res = linprog(c, A_ub=A_ub.tocsr(), b_ub=b_ub, A_eq=A_eq.tocsr(), b_eq=b_eq,
                   bounds=(None, None), method="highs",
                   options={"time_limit": TIME_LIMIT, "presolve": True})
@@ -101,28 +107,29 @@ def _solve(A: FloatArray, b: FloatArray, t_min: FloatArray, t_up: FloatArray
     return res.x, res.eqlin.marginals, res.ineqlin.marginals
 
 
-def tension_margins(A: FloatArray, b: FloatArray, t_min: FloatArray,
-                    t_up: FloatArray) -> TensionMargins:
+def tension_margins(A: FloatArray, b: FloatArray, t_lo: FloatArray, t_up: FloatArray,
+                    half: FloatArray | None = None) -> TensionMargins:
     """Tension margins (module notes) of poses with structure matrices ``A`` (N, n, m)
-    and required wrenches ``b`` (N, n) (N, N m), bounds ``t_min < t_up`` (N, m) (N).
+    and required wrenches ``b`` (N, n) (N, N m), bounds ``t_lo`` and ``t_up`` (N, m) (N)
+    and half-ranges ``half`` (N, m) (N, > 0; default ``(t_up - t_lo) / 2``).
 
     The batch is one LP; if it fails (a pose whose ``A`` cannot hold ``b`` at all), the
     poses are solved one by one and those that fail get NaN and ``solved`` False.
     """
     N, n, m = A.shape
+    half = 0.5 * (t_up - t_lo) if half is None else np.broadcast_to(half, (N, m))
     margin = np.full(N, np.nan)
     tensions = np.full((N, m), np.nan)
     d_matrix = np.zeros((N, n))
-    d_upper = np.zeros((N, m))
-    d_lower = np.zeros((N, m))
+    d_upper, d_lower, d_half = (np.zeros((N, m)) for _ in range(3))
     solved = np.zeros(N, dtype=bool)
     groups = [np.arange(N)]
-    got = _solve(A, b, t_min, t_up) if N else None
+    got = _solve(A, b, t_lo, t_up, half) if N else None
     if got is None and N:
         groups = [np.array([k]) for k in range(N)]  # rare: find the poses that fail
     for idx in groups:
         if got is None or len(groups) > 1:
-            got = _solve(A[idx], b[idx], t_min[idx], t_up[idx])
+            got = _solve(A[idx], b[idx], t_lo[idx], t_up[idx], half[idx])
             if got is None:
                 continue
         x, eq, ub = got
@@ -131,13 +138,11 @@ def tension_margins(A: FloatArray, b: FloatArray, t_min: FloatArray,
         ub = ub.reshape(len(idx), 2, m)
         s = x[:, m]
         margin[idx], tensions[idx], solved[idx] = s, x[:, :m], True
-        # s = -objective. A matrix change dA moves the equality rows' left side by
-        # dA T at the optimum: d obj = -eq . (dA T), so d s = eq . (dA T).
+        # s = -objective: d s = -sum(marginal * (d right side - d row . x)). A matrix
+        # change dA moves the equality rows' left side by dA T: d s = eq . (dA T).
         d_matrix[idx] = eq
-        # t_up_i is the right side of its upper row and, through d_i = (t_up_i -
-        # t_min_i) / 2, the coefficient of s in both of its rows.
-        lo, up, half_s = ub[:, 0], ub[:, 1], 0.5 * s[:, None]
-        d_upper[idx] = -(up * (1.0 - half_s) - lo * half_s)
-        # t_min_i is minus the right side of its lower row and moves d_i the other way.
-        d_lower[idx] = -(lo * (half_s - 1.0) + up * half_s)
-    return TensionMargins(margin, tensions, d_matrix, d_upper, d_lower, solved)
+        lo, up = ub[:, 0], ub[:, 1]
+        d_upper[idx] = -up                      # right side of T + d s <= t_up
+        d_lower[idx] = lo                       # right side -t_lo of -T + d s <= -t_lo
+        d_half[idx] = (lo + up) * s[:, None]    # the coefficient d of s in both rows
+    return TensionMargins(margin, tensions, d_matrix, d_upper, d_lower, d_half, solved)

@@ -38,6 +38,7 @@ from tension_opt.robot import CableRobot
 from tension_opt.robot.derivatives import column_derivatives, pose_derivatives
 
 from .sensitivity import (
+    CHUNK,
     COND_MAX,
     MULTIPLIER_TOL,
     NEEDS_ROBOT,
@@ -138,23 +139,27 @@ def directional_derivative(
     out[ok] = np.einsum("kad,kd->ka", jac.jacobian[ok].reshape(-1, m, d.shape[1]), d[ok])
     status = np.where(ok, "ok", jac.status).astype(object)
     status[status == "degenerate"] = "unavailable"
-    idx = np.flatnonzero(jac.status == "degenerate")
-    if len(idx):
+    degenerate = np.flatnonzero(jac.status == "degenerate")
+    if len(degenerate):
         batch = scaled_batch(form)
-        kkt = KktSystem(form, batch, solution, idx, near=True)
-        extra: Any = None
-        if wrt in NEEDS_ROBOT:
-            assert robot is not None and p is not None
-            extra = (pose_derivatives(robot, p[idx]) if wrt == "pose"
-                     else column_derivatives(robot, p[idx], wrt))
-        rhs = np.einsum("ksd,kd->ks", kkt.rhs(wrt, extra), d[idx])
-        strictly_convex = batch.epigraph is None and (batch.P[idx] > 0).all(axis=1)
-        z = solution.multipliers.z[idx]
-        for j in np.flatnonzero(strictly_convex):
-            got = _one_sided(kkt, int(j), rhs[j], z[j])
-            if got is not None:
-                out[idx[j]] = got * kkt.s[j]
-                status[idx[j]] = "one_sided"
+        # Only a strictly convex objective has the one-sided derivative computed here.
+        convex = batch.epigraph is None and (batch.P[degenerate] > 0).all(axis=1)
+        todo = degenerate[convex]
+        # In chunks: a pose's KKT matrix, its inverse and right-hand sides.
+        for idx in np.array_split(todo, -(-len(todo) // CHUNK)) if len(todo) else []:
+            kkt = KktSystem(form, batch, solution, idx, near=True)
+            extra: Any = None
+            if wrt in NEEDS_ROBOT:
+                assert robot is not None and p is not None
+                extra = (pose_derivatives(robot, p[idx]) if wrt == "pose"
+                         else column_derivatives(robot, p[idx], wrt))
+            rhs = np.einsum("ksd,kd->ks", kkt.rhs(wrt, extra), d[idx])
+            z = solution.multipliers.z[idx]
+            for j in range(len(idx)):
+                got = _one_sided(kkt, j, rhs[j], z[j])
+                if got is not None:
+                    out[idx[j]] = got * kkt.s[j]
+                    status[idx[j]] = "one_sided"
     return DirectionalDerivative(out, status.astype(str), wrt)
 
 

@@ -156,10 +156,12 @@ def test_six_dof_gradients_match_differences(name: str) -> None:
 
 
 @settings(max_examples=8, deadline=None)
-@given(st.floats(5.0, 15.0), st.floats(-3.0, 3.0), st.floats(0.01, 0.025),
-       st.floats(9000.0, 25000.0))
+@given(st.floats(5.0, 15.0), st.floats(-3.0, 3.0).filter(lambda v: abs(v) > 0.05),
+       st.floats(0.01, 0.025), st.floats(9000.0, 25000.0))
 def test_random_designs_gradients(height: float, shift: float, d: float, t_max: float
                                   ) -> None:
+    """Random designs off the symmetric one (where the margin LPs of symmetric grid
+    points have several optimal tensions: the documented subgradient case)."""
     space = study_space()
     x = np.array([height, 46.55 + shift, 31.1 - shift, d, t_max])
     for criterion in (D.PeakTension(PATH, cable_weight=True),
@@ -300,7 +302,78 @@ def test_criteria_are_safe_from_threads() -> None:
     assert together == alone
 
 
+def test_crossed_bounds_keep_a_defined_margin() -> None:
+    """Where the hanging weights close a winch's range (t_max - h < t_min + h), every
+    point is infeasible but its margin stays defined and differentiable."""
+    robot = to.presets.algae_harvester(t_max=2536.866 + 300.0, cable_diameter=0.03)
+    space = D.DesignSpace(robot, [D.anchor_coordinate("height", [0, 1, 2, 3], "z", 4, 30)])
+    criterion = D.WorkspaceCoverage(study_grid(), 1.0, 0.5)
+    got = criterion.evaluate(space.robot_at([20.0]))
+    assert got.infeasible == 0 and got.plain == 0.0 and got.value > 0.0
+    margins, _ = criterion.margins(space.robot_at([20.0]))
+    assert (margins.margin < 0).all()
+    assert_gradient(space, criterion, np.array([20.0]))
+
+
+class _SlowBowl(D.Criterion):
+    """A numerically differentiated bowl over the drawing points that takes 2 ms."""
+
+    name = "slow bowl"
+    numeric = True
+
+    def evaluate(self, robot: to.CableRobot) -> D.CriterionValue:
+        import time
+
+        time.sleep(0.002)
+        value = float(((robot.anchors - 1.0) ** 2).sum())
+        return D.CriterionValue(value, value, None)
+
+
+def test_time_limit_returns_the_best_point_met(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The best point survives the cache (here one evaluation long) and the deadline."""
+    monkeypatch.setattr("catenary.design.optimize.CACHE_SIZE", 1)
+    robot = to.presets.algae_harvester()
+    space = D.DesignSpace(robot, [D.anchor_coordinate(f"A{i}{a}", [i], a, -60, 60)
+                                  for i in range(4) for a in "xy"])
+    result = D.optimize_design(space, _SlowBowl(), starts=2, time_limit=0.3)
+    assert result.status in ("time_limit", "max_iter", "failed", "converged")
+    assert (result.starts["status"] == "time_limit").any()
+    assert np.isfinite(result.objective)
+
+
+def test_constraints_of_the_same_name_are_told_apart() -> None:
+    robot = to.presets.algae_harvester(t_max=15000.0)
+    space = D.DesignSpace(robot, [D.cable_diameter(0.008, 0.03)], material="steel")
+    result = D.optimize_design(space, D.CableMass(PATH), starts=1, constraints=[
+        D.DesignConstraint(D.CableStrength(3.0), upper=1.0),
+        D.DesignConstraint(D.CableStrength(6.0), upper=1.0)])
+    one, two = result.constraints["cable strength use (1)"], result.constraints[
+        "cable strength use (2)"]
+    assert two == pytest.approx(2 * one, rel=1e-12) and two <= 1.0 + 1e-6
+
+
+def test_cable_strength_keeps_its_own_material() -> None:
+    given = D.CableStrength(material="dyneema")
+    assert given.with_material("steel").material == "dyneema"
+    assert D.CableStrength().with_material("steel").material == "steel"
+    with pytest.raises(InvalidDesignError, match="finite t_max"):
+        D.CableStrength(material="steel").evaluate(to.presets.algae_harvester())
+
+
 @pytest.mark.parametrize(("make", "match"), [
+    (lambda: D.optimize_design(study_space(), D.TensionEnergy(PATH), materials=[]),
+     "materials"),
+    (lambda: D.optimize_design(study_space(), D.TensionEnergy(PATH), materials="steel"),
+     "materials"),
+    (lambda: D.optimize_design(study_space(), D.TensionEnergy(PATH),
+                               constraints=[D.TensionEnergy(PATH)]), "DesignConstraint"),
+    (lambda: D.optimize_design(study_space(), D.TensionEnergy(PATH), max_iter=0),
+     "max_iter"),
+    (lambda: D.DesignConstraint(D.TensionEnergy(PATH), lower=5.0, upper=1.0), "above"),
+    (lambda: D.DesignVariable("d", "diameter", ((0, 0, 1.0),), 0.01, 0.03), "no entries"),
+    (lambda: D.DesignVariable("t", "t_max", ((0, 1, 1.0),), 1.0, 3.0), "t_max entry"),
+    (lambda: D.anchor_coordinate("h", [0.5], "z", 4, 5), "integer"),
+    (lambda: D.LowestFrequency(PATH, model="bogus"), "model"),
     (lambda: D.anchor_coordinate("h", [0], "z", 5, 4), "lower < upper"),
     (lambda: D.anchor_coordinate("h", [0], "w", 4, 5), "axis"),
     (lambda: D.cable_diameter(0.0, 0.01), "diameter"),
