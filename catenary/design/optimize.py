@@ -124,6 +124,13 @@ class DesignResult:
         """The best design's variables as a tidy table (name, value)."""
         return pd.DataFrame({"variable": self.names, "value": self.x})
 
+    def __repr__(self) -> str:
+        design = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.names, self.x, strict=True))
+        material = f", material={self.material!r}" if self.material else ""
+        return (f"DesignResult(status={self.status!r}, objective={self.objective:.6g}, "
+                f"{design}{material}, starts={len(self.starts)}, "
+                f"evaluations={self.evaluations}, seconds={self.seconds:.3g})")
+
 
 class _Stop(Exception):
     """A start ends early (time limit, a design that cannot hold a pose)."""
