@@ -61,7 +61,7 @@ from tension_opt.problem.objectives import Objective, get_objective
 from tension_opt.robot import CableRobot
 
 __all__ = ["Objective", "StandardForm", "TensionProblem", "as_problem", "safe_norm",
-           "typical_tension"]
+           "typical_tension", "unit_minmax"]
 
 if TYPE_CHECKING:
 
@@ -317,7 +317,7 @@ class TensionProblem:
             raise InvalidInputError(
                 "the objective overflows: weights, smoothing or reference too large "
                 f"(weights={self.weights}, smoothing={self.smoothing:g})")
-        return StandardForm(A=A, b=b, lb=lb, ub=ub, q=q, c=c, minmax=terms.minmax,
+        return StandardForm(A=A, b=b, lb=lb, ub=ub, q=q, c=c, minmax=unit_minmax(terms.minmax),
                             problem=self, previous=prev, reference=reference)
 
     def evaluate(self, tensions: NDArray, lb: NDArray, ub: NDArray,
@@ -401,6 +401,18 @@ def _per_pose(name: str, value: ArrayLike, N: int, m: int) -> NDArray:
         raise InvalidInputError(
             f"{name} must be a scalar or have shape ({m},) or ({N}, {m}), got {arr.shape}"
         ) from None
+
+
+def unit_minmax(weights: NDArray | None) -> NDArray | None:
+    """Min-max weights over their largest. The minimiser of ``max_i v_i T_i`` does not
+    change with a common factor of ``v``, and the solvers' tolerances, which mix
+    ``v T`` with tensions, want ``v`` of order one (weights of 1e-6 moved the closed
+    form's min-norm tie-break by newtons)."""
+    if weights is None:
+        return None
+    v = np.asarray(weights, dtype=float)
+    top = float(np.abs(v).max(initial=0.0))
+    return v / top if top > 0 and np.isfinite(top) else v
 
 
 @dataclass(frozen=True, eq=False)

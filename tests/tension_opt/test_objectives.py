@@ -93,3 +93,24 @@ def test_a_new_objective_is_one_class_and_every_qp_backend_takes_it() -> None:
         # The same minimiser as min_norm with the same weights, at half its value.
         np.testing.assert_allclose(sol.tensions, reference.tensions, rtol=1e-6)
         np.testing.assert_allclose(sol.objective, 0.5 * reference.objective, rtol=1e-6)
+
+
+@pytest.mark.parametrize("backend", ["closed_form", "cvxpy", "scipy:highs"])
+def test_min_max_weights_scale_freely(backend: str) -> None:
+    """A common factor of the min-max weights leaves the optimum where it is: weights of
+    1e-6 gave 'inaccurate' answers newtons away from it."""
+    robot = to.presets.algae_harvester()
+    poses = np.array([[5.0, -3.0, 2.0], [-20.0, 10.0, 1.0], [30.0, -15.0, 1.0]])
+    if backend == "closed_form":  # both the numpy path and the compiled one (16 poses on)
+        poses = np.vstack([poses, np.column_stack([np.linspace(-30, 30, 17),
+                                                   np.linspace(-15, 15, 17),
+                                                   np.full(17, 1.5)])])
+    w = np.array([1.0, 2.0, 1.0, 1.0])
+    base = to.distribute(robot, poses, to.TensionProblem("min_max", weights=w), backend)
+    assert (base.status == "optimal").all()
+    for factor in (1e-6, 1 / 15000, 1e6):
+        got = to.distribute(robot, poses, to.TensionProblem("min_max", weights=factor * w),
+                            backend)
+        assert (got.status == "optimal").all(), (factor, got.status)
+        np.testing.assert_allclose(got.tensions, base.tensions, rtol=1e-7)
+        np.testing.assert_allclose(got.objective, factor * base.objective, rtol=1e-7)
