@@ -121,9 +121,7 @@ def pack_problem(robot: Any, problem: Any, target: float) -> NDArray:
     rate = np.full(m, np.inf) if problem.rate_limit is None else np.broadcast_to(
         np.asarray(problem.rate_limit, dtype=float), (m,))
     minmax = terms.minmax is not None
-    # Over their largest, as the standard form's (problem.form.unit_minmax).
-    v = np.ones(m) if not minmax else np.asarray(terms.minmax, dtype=float)
-    v = v / max(float(np.abs(v).max()), 1e-300) if minmax else v
+    v = np.ones(m) if not minmax else terms.minmax / np.abs(terms.minmax).max()  # unit_minmax
     stacked = np.stack([terms.q[0], terms.c[0], v, lb[0], ub[0], rate])
     return pack(robot_kind_code(robot), robot.anchors, robot.attachments, robot.com,
                 robot.mass * robot.g, 1e-12 * max(1.0, float(np.abs(robot.anchors).max())),

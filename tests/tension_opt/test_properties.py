@@ -54,8 +54,14 @@ def test_closed_form_is_optimal_against_an_interior_point_solver(case):
     for objective in ("min_sum", "min_norm", "min_max"):
         exact = to.distribute(robot, poses, objective, "closed_form")
         ipm = to.distribute(robot, poses, objective, "qpsolvers:clarabel", accuracy="high")
-        np.testing.assert_array_equal(exact.success, ipm.success)
-        ok = exact.success
+        # Where the interior point method solves a pose, so does the closed form. It may
+        # solve more: the solver can stop short on a feasible pose (max_iter), never
+        # claiming a wrong answer.
+        assert (exact.success | ~ipm.success).all()
+        stopped = exact.success & ~ipm.success
+        assert all(str(s) in ("max_iter", "solver_error", "inaccurate")
+                   for s in ipm.status[stopped])
+        ok = exact.success & ipm.success
         assume(ok.any())
         scale = np.abs(exact.objective[ok]).max()
         # The closed form is never worse than the solver (up to the solver's tolerance).
