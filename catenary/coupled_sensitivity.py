@@ -51,7 +51,7 @@ from tension_opt.robot.derivatives import pose_derivatives, vector_derivatives
 
 from .elastic import axial_compliance, evaluate, length_derivative
 from .errors import InvalidCableError
-from .geometry import cable_data, cable_planes, check_robot
+from .geometry import cable_planes, check_robot, sagging_cable_data
 from .inverse import InverseKinematicsResult, inverse_kinematics
 from .sensitivity import span_partials
 
@@ -150,10 +150,8 @@ def coupled_jacobians(robot: CableRobot, poses: ArrayLike, wrts: Sequence[str],
         if wrt not in COUPLED_WRT:
             raise InvalidCableError(f"wrt must be one of {COUPLED_WRT}, got {wrt!r}")
     check_robot(robot)
-    w, EA = cable_data(robot)
-    if not w > 0:
-        raise InvalidCableError("weightless cables do not sag: differentiate the straight "
-                                "distribution (TensionSolution.jacobian)")
+    w, EA = sagging_cable_data(robot, "differentiate the straight distribution "
+                                      "(TensionSolution.jacobian)")
     p = robot.as_poses(poses)
     if result is None:
         result = inverse_kinematics(robot, p, "coupled", "min_sum", wrench=wrench, **options)

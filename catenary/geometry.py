@@ -46,6 +46,7 @@ __all__ = [
     "planes_along",
     "platform_forces",
     "refuse_pulleys",
+    "sagging_cable_data",
     "straight_planes",
     "taut_catenaries",
 ]
@@ -176,6 +177,15 @@ def cable_data(robot: CableRobot, pulleys: bool = False) -> tuple[float, float]:
             "cable=CableProperties(diameter, linear_mass, EA) to use the catenary model"
         )
     return robot.cable.weight_per_length(robot.g), float(robot.cable.EA)
+
+
+def sagging_cable_data(robot: CableRobot, instead: str) -> tuple[float, float]:
+    """:func:`cable_data` of cables that sag: a weight per length > 0, else
+    :class:`InvalidCableError` saying what to use ``instead`` (no guide pulleys)."""
+    w, EA = cable_data(robot)
+    if not w > 0:
+        raise InvalidCableError(f"weightless cables do not sag: {instead}")
+    return w, EA
 
 
 # ----------------------------------------------------------------------------- forces

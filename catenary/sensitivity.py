@@ -40,7 +40,7 @@ from tension_opt.robot.derivatives import vector_derivatives
 
 from .elastic import axial_compliance, evaluate, length_derivative
 from .errors import InvalidCableError
-from .geometry import cable_data, cable_planes, check_robot
+from .geometry import cable_planes, check_robot, sagging_cable_data
 from .solve import solve_length
 
 __all__ = ["LENGTH_WRT", "LengthPartials", "LengthSensitivity", "SpanPartials",
@@ -225,10 +225,8 @@ def length_jacobian(robot: CableRobot, poses: ArrayLike, wrt: str,
     if wrt not in LENGTH_WRT:
         raise InvalidCableError(f"wrt must be one of {LENGTH_WRT}, got {wrt!r}")
     check_robot(robot)
-    w, EA = cable_data(robot)
-    if not w > 0:
-        raise InvalidCableError("weightless cables do not sag: their lengths are the "
-                                "straight ones (robot.inverse_kinematics)")
+    w, EA = sagging_cable_data(robot, "their lengths are the straight ones "
+                                      "(robot.inverse_kinematics)")
     p = robot.as_poses(poses)
     straight = tension_opt.distribute(robot, p, objective, backend, wrench=wrench, **options)
     planes = cable_planes(robot, p)
