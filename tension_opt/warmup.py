@@ -81,6 +81,12 @@ def _certified_pass() -> None:
     distribute(presets.cogiro(), _spatial_poses(4200), chunk_size=4096)
 
 
+def _jacobians() -> None:
+    from tension_opt.distribution.compiled_sensitivity import warm_kernel
+
+    warm_kernel()  # the Jacobians of a batch solved in chunks
+
+
 def _distributor() -> None:
     from tension_opt.backends.registry import available_backends
     from tension_opt.distribution.distributor import Distributor
@@ -152,6 +158,7 @@ FAMILIES: dict[str, Callable[[], None]] = {
     "robot geometry": _geometry,
     "closed form": _closed_form,
     "certified pass": _certified_pass,
+    "Jacobians": _jacobians,
     "real-time distributor": _distributor,
     "certificate of generic solvers": _generic_backends,
     "time-optimal timing": _timing,
@@ -173,6 +180,7 @@ COMPILE_SECONDS: dict[str, float] = {
     "catenary: sagging-cable interference": 8.0,
     "certificate of generic solvers": 17.0,
     "time-optimal timing": 15.0,
+    "Jacobians": 13.0,
     "robot geometry": 2.0,
     "wrench-space margin": 2.0,
 }

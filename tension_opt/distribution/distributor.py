@@ -44,8 +44,9 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt.backends.base import Backend
 from tension_opt.backends.settings import check_options, solver_options
 from tension_opt.checks import as_finite, as_float_array
-from tension_opt.distribution.certified import CertifiedPlan, certified_plan, pack_realtime
+from tension_opt.distribution.certified import CertifiedPlan, certified_plan
 from tension_opt.distribution.entry import CHUNK_SIZE, distribute
+from tension_opt.distribution.packing import pack_realtime
 from tension_opt.distribution.solution import TensionSolution
 from tension_opt.errors import InvalidInputError
 from tension_opt.problem.form import TensionProblem, as_problem
@@ -252,7 +253,7 @@ class Distributor:
     @property
     def closed_form_data(self) -> NDArray | None:
         """The packed problem of a distributor that answers by the compiled closed form
-        (:func:`tension_opt.distribution.certified.pack_realtime`, whose first part is
+        (:func:`tension_opt.distribution.packing.pack_realtime`, whose first part is
         :func:`tension_opt.kernels.closed_form.pack`'s), for compiled callers that call
         :func:`~tension_opt.kernels.closed_form.solve_one` or
         :func:`~tension_opt.kernels.distributor.certified_one` themselves; None for the

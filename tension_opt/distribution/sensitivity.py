@@ -58,6 +58,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.certify.scaling import compiled_scaling, scaled_batch
+from tension_opt.distribution.compiled_sensitivity import compiled_jacobian
 from tension_opt.errors import InvalidInputError
 from tension_opt.robot import CableRobot
 from tension_opt.robot.derivatives import cable_frames, column_derivatives, pose_derivatives
@@ -167,6 +168,11 @@ def tension_jacobian(
         For an unknown ``wrt``, a solution without multipliers, or a missing or
         mismatched ``robot`` / ``poses``.
     """
+    if wrt not in WRT:
+        raise InvalidInputError(f"wrt must be one of {list(WRT)}, got {wrt!r}")
+    compiled = compiled_jacobian(solution, wrt, robot, poses, wrench)
+    if compiled is not None:
+        return Sensitivity(compiled[0], np.asarray(SENSITIVITY_STATUSES)[compiled[1]], wrt)
     form, p = checked_form(solution, wrt, robot, poses, wrench, previous)
     N, m = solution.N, form.m
     batch = scaled_batch(form)

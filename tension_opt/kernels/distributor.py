@@ -21,7 +21,7 @@ sign-constrained refit (:func:`tension_opt.kernels.refit.pose_refit`, as
 :data:`~tension_opt.kernels.closed_form.CODE_BAD_INPUT` for a pose or wrench that is
 not finite.
 
-The packed problem is :func:`tension_opt.distribution.certified.pack_certified`'s
+The packed problem is :func:`tension_opt.distribution.packing.pack_certified`'s
 layout (:func:`tension_opt.kernels.closed_form.pack`, then the accuracy target, the
 objective's code, the largest min-max weight, and the objective's weights and target
 tensions, which these kernels do not read).

@@ -22,7 +22,7 @@ import tension_opt as to
 from tension_opt import presets
 from tension_opt.backends.qpsolvers_backend import objective_factors
 from tension_opt.certify.certificate import refit_poses
-from tension_opt.distribution.certified import pack_realtime
+from tension_opt.distribution.packing import pack_realtime
 from tension_opt.kernels.closed_form import CODE_FALLBACK
 from tension_opt.kernels.dense_qp import (
     LINEAR_CAP,

@@ -1,0 +1,136 @@
+"""The compiled route of the Jacobians of a large batch (:mod:`tension_opt.kernels.sensitivity`).
+
+:func:`tension_opt.distribution.sensitivity.tension_jacobian` takes this route, by a rule
+on the call alone (never on what numba happens to have cached), where:
+
+- ``wrt`` is ``"wrench"`` or ``"pose"``;
+- the solution keeps no form (a batch of more than
+  :data:`~tension_opt.distribution.entry.CHUNK_SIZE` poses, solved in chunks), and the
+  call gives the ``robot`` and ``poses`` it needs anyway;
+- the robot is of a kind the compiled geometry knows (no guide pulleys), the problem is
+  one of the package's objectives without min-max term, smoothing or rate limit, and its
+  Hessian is zero (linear) or positive for every cable.
+
+The kernel gives the numpy path's Jacobians to rounding and its statuses (see the
+kernel's module for the one difference, the singularity test near its limit). Tasks of
+:data:`TASK` poses run side by side on numba's configured threads (the kernel releases
+the GIL).
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from tension_opt.distribution.packing import pack_certified
+from tension_opt.robot import CableRobot
+
+__all__ = ["TASK", "compiled_jacobian", "warm_kernel"]
+
+#: Poses per kernel call of a large batch (the threads' unit of work).
+TASK = 32768
+
+
+def compiled_jacobian(solution: Any, wrt: str, robot: Any, poses: ArrayLike | None,
+                      wrench: ArrayLike | None) -> tuple[NDArray, NDArray] | None:
+    """``(jacobian (N, m, n), status codes (N,) of int8)`` of ``solution`` by the compiled
+    kernel, or None where the call does not take this route (see the module docstring;
+    the numpy path then answers, or raises its error for bad input)."""
+    from tension_opt.kernels.geometry import compiled_kind
+
+    if (wrt not in ("wrench", "pose") or solution.form is not None
+            or not isinstance(robot, CableRobot) or poses is None
+            or solution.multipliers is None or solution.problem is None
+            or solution.problem.is_sequential or compiled_kind(robot) < 0):
+        return None
+    data = pack_certified(robot, solution.problem, 0.0)
+    m, n, N = robot.m, robot.dof, solution.N
+    if data is None or data[7] != 0.0:  # another objective, or a min-max term
+        return None
+    from tension_opt.kernels.closed_form import HEADER
+
+    q = data[HEADER + 6 * m:HEADER + 7 * m]  # the form's Hessian diagonal
+    if not ((q == 0.0).all() or (q > 0.0).all()):
+        return None
+    arrays = _arrays(solution, robot, poses, wrench, m, n, N)
+    if arrays is None:
+        return None
+    return _run(data, arrays, 0 if wrt == "wrench" else 1, m, n, N)
+
+
+def _read_only(a: NDArray, dtype: Any) -> NDArray:
+    """``a`` as a read-only C-contiguous array of ``dtype`` (one kernel signature)."""
+    view = np.ascontiguousarray(a, dtype=dtype).view()
+    view.flags.writeable = False
+    return view
+
+
+def _arrays(solution: Any, robot: CableRobot, poses: ArrayLike, wrench: ArrayLike | None,
+            m: int, n: int, N: int) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray,
+                                             NDArray] | None:
+    """The kernel's inputs: poses, wrenches, tensions, bound multipliers and the masks of
+    the solved and unique poses; None where a shape does not fit (the numpy path then
+    raises its error)."""
+    p = robot.as_poses(poses)
+    mult = solution.multipliers
+    if len(p) != N or mult.z.shape != (N, m) or mult.y.shape != (N, n):
+        return None
+    if wrench is None:
+        w = np.zeros((1, n))
+    else:
+        w = np.asarray(wrench, dtype=float)
+        if w.shape not in ((n,), (N, n)):
+            return None
+        w = w.reshape(-1, n)
+    T = solution.tensions
+    solved = solution.success & mult.known & np.isfinite(T).all(axis=1)
+    return (_read_only(p, float), _read_only(w, float), _read_only(T, float),
+            _read_only(mult.z, float), _read_only(solved, bool),
+            _read_only(solution.unique, bool))
+
+
+def _run(data: NDArray, arrays: tuple[NDArray, ...], wrt: int, m: int, n: int, N: int
+         ) -> tuple[NDArray, NDArray]:
+    """The kernel over the batch (``arrays``: :func:`_arrays`), in tasks of :data:`TASK`
+    poses on numba's threads."""
+    from tension_opt.kernels.first_use import announce
+    from tension_opt.kernels.launch import configured_threads
+    from tension_opt.kernels.sensitivity import jacobian_poses
+
+    announce("Jacobian", jacobian_poses)
+    data = _read_only(data, float)
+    p, w, T, z, solved, unique = arrays
+    J = np.empty((N, m, n))
+    codes = np.empty(N, dtype=np.int8)
+
+    def task(k: int) -> None:
+        sl = slice(k * TASK, min(N, (k + 1) * TASK))
+        jacobian_poses(data, p[sl], w if len(w) == 1 else w[sl], T[sl], z[sl], solved[sl],
+                       unique[sl], wrt, J[sl], codes[sl])
+
+    tasks = -(-N // TASK)
+    threads = min(tasks, max(1, configured_threads()))
+    if threads <= 1:
+        for k in range(tasks):
+            task(k)
+    else:
+        with ThreadPoolExecutor(threads) as pool:
+            list(pool.map(task, range(tasks)))
+    return J, codes
+
+
+def warm_kernel() -> None:
+    """Compile the kernel (its one signature, or load it from numba's cache) on one pose
+    of the study robot, for the warm-up (:mod:`tension_opt.warmup`)."""
+    from tension_opt.problem.form import TensionProblem
+    from tension_opt.robot import presets
+
+    robot = presets.algae_harvester()
+    data = pack_certified(robot, TensionProblem("min_norm"), 0.0)
+    assert data is not None
+    arrays = (np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 3)), np.full((1, 4), 1e3),
+              np.zeros((1, 4)), np.ones(1, dtype=bool), np.ones(1, dtype=bool))
+    _run(data, tuple(_read_only(a, a.dtype) for a in arrays), 0, 4, 3, 1)

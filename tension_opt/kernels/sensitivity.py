@@ -1,0 +1,448 @@
+"""Jacobians of optimal tensions by the wrench and by the pose, compiled, pose by pose.
+
+The reference is :class:`tension_opt.distribution.sensitivity.KktSystem` on a problem
+without rows (no min-max term) whose objective is linear (every Hessian entry zero) or
+has a positive Hessian everywhere: the package's ``min_sum``, ``min_norm``,
+``centered`` and ``pinv``. With the active set fixed, the bound-active tensions do not
+move and the free ones ``F`` solve the reduced KKT system (``Ar`` the equilibrium rows
+over their norms, ``Q`` and ``c`` the form's Hessian diagonal and cost)::
+
+    linear:    Ar_F dT_F = dbr                         (a vertex: |F| = n)
+    quadratic: S dy = -(dbr + Ar_F Q_F^-1 r),  dT_F = -Q_F^-1 (r + Ar_F' dy),
+               S = Ar_F Q_F^-1 Ar_F'
+
+with ``dbr = rows * (db - dA T)`` and ``r = dA_F' y`` (``dA``, ``db`` zero for the
+wrench, whose ``db`` is ``-e_j``). This is the full KKT matrix of the reference
+eliminated block by block, so the derivatives agree to rounding.
+
+The per-pose statuses are the reference's: the active set from the certificate's
+multipliers and the distance to the bounds (:data:`ACTIVE_TOL`,
+:data:`MULTIPLIER_TOL`, in the pose's reference tensions), ``"degenerate"`` where strict
+complementarity fails or the KKT point's multipliers have the wrong sign,
+``"non_unique"`` for a face of optima, ``"not_optimal"`` where the KKT point of the
+active set is not the solution. Singularity is judged on the reduced matrix (``Ar_F``,
+or ``S``), whose 1-norm condition number must stay below :data:`COND_MAX`; the reference
+judges the full matrix, whose condition number is of the same order (equal for the
+linear case up to the identity blocks, the square of ``Ar_F``'s for the quadratic
+one), so the two can differ only on poses within a few orders of the limit.
+
+The derivative of the columns by the pose is that of
+:func:`tension_opt.robot.derivatives.pose_derivatives`: a step moves the platform by
+``t`` and turns it by ``omega`` (the left Jacobian of SO(3) for ``"spatial6"``), so
+``dr = omega x r``, ``dv = -t - dr``, ``du = (dv - u (u . dv)) / L`` and the column
+moves by ``[du; dr x u + r x du]``; gravity's moment moves by ``(omega x R c) x f``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from tension_opt.kernels.certified import problem_views
+from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, rotation
+from tension_opt.kernels.scaling import pose_scaling
+from tension_opt.tolerances import ROW_FLOOR, UB_SHARE
+
+__all__ = ["ACTIVE_TOL", "COND_MAX", "MULTIPLIER_TOL", "POSE", "WRENCH", "jacobian_poses"]
+
+#: What a Jacobian is taken with respect to: the external wrench, the pose.
+WRENCH, POSE = 0, 1
+#: Statuses, in the order of :data:`tension_opt.distribution.sensitivity.SENSITIVITY_STATUSES`.
+_OK, _NON_UNIQUE, _DEGENERATE, _NOT_OPTIMAL = 0, 1, 2, 3
+#: The reference's tolerances (:mod:`tension_opt.distribution.sensitivity`).
+ACTIVE_TOL = 1e-5
+MULTIPLIER_TOL = 1e-5
+COND_MAX = 1e10
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _invert(M: NDArray, Minv: NDArray, r: int) -> float:
+    """``Minv = M^-1`` for the leading (r, r) block, by Gauss-Jordan elimination with
+    partial pivoting (``M`` overwritten); returns the 1-norm condition number (inf for a
+    singular or non-finite matrix)."""
+    norm = 0.0
+    for j in range(r):
+        total = 0.0
+        for i in range(r):
+            total += abs(M[i, j])
+        norm = max(norm, total) if total == total else np.inf
+    for i in range(r):
+        for j in range(r):
+            Minv[i, j] = 1.0 if i == j else 0.0
+    ok = math.isfinite(norm)
+    for col in range(r):
+        if not ok:
+            break
+        pivot = col
+        for row in range(col + 1, r):
+            if abs(M[row, col]) > abs(M[pivot, col]):
+                pivot = row
+        if M[pivot, col] == 0.0:
+            ok = False
+            break
+        if pivot != col:
+            for j in range(r):
+                M[col, j], M[pivot, j] = M[pivot, j], M[col, j]
+                Minv[col, j], Minv[pivot, j] = Minv[pivot, j], Minv[col, j]
+        inv = 1.0 / M[col, col]
+        for j in range(r):
+            M[col, j] *= inv
+            Minv[col, j] *= inv
+        for row in range(r):
+            f = M[row, col]
+            if row != col and f != 0.0:
+                for j in range(r):
+                    M[row, j] -= f * M[col, j]
+                    Minv[row, j] -= f * Minv[col, j]
+    inorm = 0.0
+    for j in range(r):
+        total = 0.0
+        for i in range(r):
+            total += abs(Minv[i, j])
+        inorm = max(inorm, total) if total == total else np.inf
+    cond = norm * inorm if ok else np.inf
+    if (M.size | Minv.size) < 0:  # never: the arrays read after the branches
+        cond = np.nan
+    return cond
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _kept(kind: int, k: int, f0: float, f1: float, f2: float, f3: float, f4: float,
+          f5: float) -> float:
+    """Row ``k`` of the kind's rows of a full wrench ``(f, m)`` (as the geometry's)."""
+    out = f0
+    if kind == 1:
+        out = f2 if k == 1 else f0
+    elif kind == 2:
+        out = f1 if k == 1 else (f5 if k == 2 else f0)
+    elif k > 0:
+        out = (f0, f1, f2, f3, f4, f5)[k]
+    return out
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _step(kind: int, j: int, pose: NDArray) -> tuple[float, float, float, float, float,
+                                                    float]:
+    """Translation ``t`` and small rotation ``omega`` of a unit step of pose coordinate
+    ``j`` (``omega`` about the base axes; the left Jacobian's column for spatial6)."""
+    t0 = t1 = t2 = w0 = w1 = w2 = 0.0
+    if kind == 0 or (kind == 3 and j < 3):
+        t0, t1, t2 = 1.0 if j == 0 else 0.0, 1.0 if j == 1 else 0.0, 1.0 if j == 2 else 0.0
+    elif kind == 1:
+        t0, t2 = 1.0 if j == 0 else 0.0, 1.0 if j == 1 else 0.0
+    elif kind == 2:
+        t0, t1, w2 = 1.0 if j == 0 else 0.0, 1.0 if j == 1 else 0.0, 1.0 if j == 2 else 0.0
+    else:
+        x, y, z = pose[3], pose[4], pose[5]
+        phi2 = x * x + y * y + z * z
+        if phi2 < 1e-8:  # the reference's series below phi = 1e-4
+            a, b = 0.5 - phi2 / 24.0, 1.0 / 6.0 - phi2 / 120.0
+        else:
+            phi = math.sqrt(phi2)
+            a, b = (1.0 - math.cos(phi)) / phi2, (phi - math.sin(phi)) / (phi2 * phi)
+        e0, e1, e2 = 1.0 if j == 3 else 0.0, 1.0 if j == 4 else 0.0, 1.0 if j == 5 else 0.0
+        # J_l e = e + a (theta x e) + b theta x (theta x e)
+        c0, c1, c2 = y * e2 - z * e1, z * e0 - x * e2, x * e1 - y * e0
+        d0, d1, d2 = y * c2 - z * c1, z * c0 - x * c2, x * c1 - y * c0
+        w0, w1, w2 = e0 + a * c0 + b * d0, e1 + a * c1 + b * d1, e2 + a * c2 + b * d2
+    if pose.size < 0:  # never: the pose read after the branches
+        t0 = np.nan
+    return t0, t1, t2, w0, w1, w2
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _pose_terms(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
+                weight: float, pose: NDArray, T: NDArray, yu: NDArray, dAT: NDArray,
+                dAy: NDArray, db: NDArray) -> None:
+    """For each pose coordinate ``j``: ``dAT[:, j] = dA_j T`` (n), ``dAy[:, j] = dA_j' yu``
+    (m) and ``db[:, j]`` (n), the derivatives of the columns and of the required
+    wrench ``b = -(w_g + w)``."""
+    n, m = dAT.shape[0], anchors.shape[0]
+    R00, R01, R02, R10, R11, R12, R20, R21, R22 = rotation(kind, pose)
+    px, py, pz = pose[0], pose[1] if kind != 1 else 0.0, 0.0
+    if kind == 0 or kind == 3:
+        pz = pose[2]
+    elif kind == 1:
+        pz = pose[1]
+    c0 = R00 * com[0] + R01 * com[1] + R02 * com[2]
+    c1 = R10 * com[0] + R11 * com[1] + R12 * com[2]
+    c2 = R20 * com[0] + R21 * com[1] + R22 * com[2]
+    for j in range(n):
+        t0, t1, t2, w0, w1, w2 = _step(kind, j, pose)
+        for k in range(n):
+            dAT[k, j] = 0.0
+        for i in range(m):
+            a0, a1, a2 = attachments[i, 0], attachments[i, 1], attachments[i, 2]
+            r0 = R00 * a0 + R01 * a1 + R02 * a2
+            r1 = R10 * a0 + R11 * a1 + R12 * a2
+            r2 = R20 * a0 + R21 * a1 + R22 * a2
+            v0 = anchors[i, 0] - (px + r0)
+            v1 = anchors[i, 1] - (py + r1)
+            v2 = anchors[i, 2] - (pz + r2)
+            L = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+            u0, u1, u2 = v0 / L, v1 / L, v2 / L
+            dr0, dr1, dr2 = w1 * r2 - w2 * r1, w2 * r0 - w0 * r2, w0 * r1 - w1 * r0
+            dv0, dv1, dv2 = -t0 - dr0, -t1 - dr1, -t2 - dr2
+            ud = u0 * dv0 + u1 * dv1 + u2 * dv2
+            du0, du1, du2 = (dv0 - u0 * ud) / L, (dv1 - u1 * ud) / L, (dv2 - u2 * ud) / L
+            m0 = (dr1 * u2 - dr2 * u1) + (r1 * du2 - r2 * du1)
+            m1 = (dr2 * u0 - dr0 * u2) + (r2 * du0 - r0 * du2)
+            m2 = (dr0 * u1 - dr1 * u0) + (r0 * du1 - r1 * du0)
+            total = 0.0
+            for k in range(n):
+                col = _kept(kind, k, du0, du1, du2, m0, m1, m2)
+                dAT[k, j] += col * T[i]
+                total += col * yu[k]
+            dAy[i, j] = total
+        # d((R c) x f) = (omega x R c) x f with f = (0, 0, -weight); b takes it negated.
+        e0, e1 = w1 * c2 - w2 * c1, w2 * c0 - w0 * c2
+        g0, g1 = e1 * weight, -e0 * weight  # -((omega x Rc) x f), f = (0, 0, -weight)
+        for k in range(n):
+            db[k, j] = _kept(kind, k, 0.0, 0.0, 0.0, g0, g1, 0.0)
+    if (anchors.size | attachments.size | com.size | pose.size | T.size | yu.size
+            | dAT.size | dAy.size | db.size) < 0:
+        db[0, 0] = np.nan  # never: the arrays read after the branches
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def jacobian_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray,
+                   z: NDArray, solved: NDArray, unique: NDArray, wrt: int, J: NDArray,
+                   codes: NDArray) -> None:
+    """Jacobians of the optimal tensions of independent poses (see the module docstring).
+
+    Parameters
+    ----------
+    data : ndarray
+        :func:`tension_opt.distribution.packing.pack_certified` of the robot and
+        problem solved (no min-max term).
+    poses : ndarray, shape (N, n)
+    wrenches : ndarray, shape (N, n) or (1, n)
+        External wrench besides gravity (N, N m), per pose or one for all.
+    T : ndarray, shape (N, m)
+        Optimal tensions (N).
+    z : ndarray, shape (N, m)
+        The certificate's bound multipliers (scaled: ``< 0`` lower, ``> 0`` upper).
+    solved, unique : ndarray of bool, shape (N,)
+        Poses with a certified optimum and finite multipliers; poses whose optimum is
+        unique.
+    wrt : int
+        :data:`WRENCH` or :data:`POSE`.
+    J : ndarray, shape (N, m, n)
+        Written: ``dT / d wrt`` (NaN where the status is not ``"ok"``).
+    codes : ndarray of int8, shape (N,)
+        Written: the statuses' codes.
+    """
+    m, n = int(data[1]), int(data[2])
+    # Work arrays made once and handed to the loop (see tension_opt.kernels).
+    work = (np.empty(n), np.empty(n), np.empty((n, m)), np.empty(n), np.empty(n),
+            np.empty(m, dtype=np.int64), np.empty(m), np.empty((n, n)), np.empty((n, n)),
+            np.empty(n), np.empty(n), np.empty((n, n)), np.empty((m, n)), np.empty((n, n)),
+            np.empty(n), np.empty(m), np.empty(n), np.empty(m))
+    _loop(data, problem_views(data), poses, wrenches, T, z, solved, unique, wrt, J, codes,
+          work)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _active(T: NDArray, z: NDArray, lb: NDArray, ub: NDArray, s: float, free: NDArray,
+            bound: NDArray) -> tuple[bool, int]:
+    """The active set of one pose (the reference's rule): ``bound`` written with the
+    active bound's value (NaN where free), ``free`` with the free cables first; returns
+    whether strict complementarity fails, and the number of free cables."""
+    nfree, bad = 0, False
+    for i in range(T.size):
+        x = T[i] / s
+        near_lo, near_hi = x - lb[i] / s <= ACTIVE_TOL, ub[i] / s - x <= ACTIVE_TOL
+        lo = near_lo and z[i] < -MULTIPLIER_TOL
+        hi = near_hi and z[i] > MULTIPLIER_TOL and not lo
+        active = lo or hi
+        strong = abs(z[i]) > MULTIPLIER_TOL
+        if (near_lo and near_hi) or ((near_lo or near_hi or strong) and not active):
+            bad = True
+        bound[i] = lb[i] if lo else (ub[i] if hi else np.nan)
+        if not active:
+            free[nfree] = i
+            nfree += 1
+    if (T.size | z.size | lb.size | ub.size | free.size | bound.size) < 0:
+        bad = True  # never: the arrays read after the branches
+    return bad, nfree
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _reduced(A: NDArray, rows: NDArray, q: NDArray, free: NDArray, nfree: int,
+             linear: bool, Mf: NDArray, Minv: NDArray) -> float:
+    """The reduced matrix (``Ar_F``, square, or ``S``) inverted into ``Minv``; its 1-norm
+    condition number (inf where the active set cannot fix a point)."""
+    n = Mf.shape[0]
+    cond = np.inf
+    if (linear and nfree == n) or (not linear and nfree >= n):
+        for k in range(n):
+            for col in range(n):
+                if linear:
+                    Mf[k, col] = rows[k] * A[k, free[col]]
+                else:
+                    total = 0.0
+                    for a in range(nfree):
+                        i = free[a]
+                        total += A[k, i] * A[col, i] / q[i]
+                    Mf[k, col] = rows[k] * rows[col] * total
+        cond = _invert(Mf, Minv, n)
+    if (A.size | rows.size | q.size | free.size | Mf.size | Minv.size) < 0:
+        cond = np.nan  # never: the arrays read after the branches
+    return cond
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _kkt_point(A: NDArray, b: NDArray, rows: NDArray, q: NDArray, c: NDArray, lb: NDArray,
+               T: NDArray, s: float, free: NDArray, nfree: int, bound: NDArray,
+               linear: bool, Minv: NDArray, y: NDArray, g: NDArray, x: NDArray
+               ) -> tuple[bool, bool]:
+    """The KKT point of the active set: ``y`` (over the row-scaled equations) written;
+    returns whether an active bound's multiplier has the wrong sign, and whether the
+    point is not the solution ``T`` (beyond ten times :data:`ACTIVE_TOL`)."""
+    n, m = A.shape
+    for k in range(n):
+        total = b[k]
+        for i in range(m):
+            if bound[i] == bound[i]:
+                total -= A[k, i] * bound[i]
+        g[k] = rows[k] * total
+    if linear:  # Ar_F' y = -c_F
+        for k in range(n):
+            total = 0.0
+            for a in range(n):
+                total -= Minv[a, k] * c[free[a]]
+            y[k] = total
+    _reduced_solve(A, rows, q, free, nfree, linear, Minv, g, c, y, x)
+    moved = False
+    for a in range(nfree):
+        if not abs(x[a] - T[free[a]]) / s <= 10 * ACTIVE_TOL:
+            moved = True
+    signs = False
+    for i in range(m):
+        if bound[i] == bound[i]:
+            zi = q[i] * bound[i] + c[i]
+            for k in range(n):
+                zi += rows[k] * A[k, i] * y[k]
+            zi = -zi
+            if (bound[i] == lb[i] and not zi < 0.0) or (bound[i] != lb[i] and not zi > 0.0):
+                signs = True
+    if (A.size | b.size | rows.size | q.size | c.size | lb.size | T.size | free.size
+            | bound.size | Minv.size | y.size | g.size | x.size) < 0:
+        signs = True  # never: the arrays read after the branches
+    return signs, moved
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _reduced_solve(A: NDArray, rows: NDArray, q: NDArray, free: NDArray, nfree: int,
+                   linear: bool, Minv: NDArray, g: NDArray, e: NDArray, y: NDArray,
+                   x: NDArray) -> None:
+    """The free tensions ``x`` (``nfree``) of the reduced KKT system whose equations'
+    right-hand side is ``g`` (n, row-scaled; overwritten) and whose stationarity's is
+    ``-e`` (m): ``x = Ar_F^-1 g`` (linear), else ``S y = -(g + Ar_F Q^-1 e)`` and
+    ``x = -Q^-1 (e + Ar_F' y)`` with ``y`` written."""
+    n = Minv.shape[0]
+    if linear:
+        for a in range(n):
+            total = 0.0
+            for k in range(n):
+                total += Minv[a, k] * g[k]
+            x[a] = total
+    else:
+        for k in range(n):
+            for a in range(nfree):
+                i = free[a]
+                g[k] += rows[k] * A[k, i] * e[i] / q[i]
+        for k in range(n):
+            total = 0.0
+            for col in range(n):
+                total -= Minv[k, col] * g[col]
+            y[k] = total
+        for a in range(nfree):
+            i = free[a]
+            total = e[i]
+            for k in range(n):
+                total += rows[k] * A[k, i] * y[k]
+            x[a] = -total / q[i]
+    if (A.size | rows.size | q.size | free.size | Minv.size | g.size | e.size | y.size
+            | x.size) < 0:
+        x[0] = np.nan  # never: the arrays read after the branches
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _loop(data: NDArray, views: tuple[NDArray, ...], poses: NDArray, wrenches: NDArray,
+          T: NDArray, z: NDArray, solved: NDArray, unique: NDArray, wrt: int, J: NDArray,
+          codes: NDArray, work: tuple[NDArray, ...]) -> None:
+    """The loop of :func:`jacobian_poses` over its poses (``views`` of ``data`` and the
+    work arrays as arguments: as the certified pass's loop)."""
+    pose, wrench, A, b, rows, free, bound, Mf, Minv, y, yu, dAT, dAy, db, g, e, dy, x = work
+    anchors, attachments, com, q, c, _, lb, ub, _, _ = views
+    kind, m, n = int(data[0]), int(data[1]), int(data[2])
+    linear = True
+    for i in range(m):
+        linear = linear and q[i] == 0.0
+    for i in range(n):
+        wrench[i] = wrenches[0, i]
+    for p in range(poses.shape[0]):
+        status = _NOT_OPTIMAL
+        for i in range(n):
+            pose[i] = poses[p, i]
+            if wrenches.shape[0] > 1:
+                wrench[i] = wrenches[p, i]
+        Tp = T[p]
+        if solved[p] and geometry_into(kind, anchors, attachments, com, data[3], data[4],
+                                       pose, wrench, A, b) == GEOMETRY_OK:
+            s = pose_scaling(A, b, lb, ub, q, c, 0.0, UB_SHARE, ROW_FLOOR, rows)[0]
+            bad, nfree = _active(Tp, z[p], lb, ub, s, free, bound)
+            cond = _reduced(A, rows, q, free, nfree, linear, Mf, Minv)
+            status = _DEGENERATE if bad else _OK
+            if not cond <= COND_MAX:
+                status = _NON_UNIQUE if linear and nfree > n else _DEGENERATE
+            else:
+                signs, moved = _kkt_point(A, b, rows, q, c, lb, Tp, s, free, nfree, bound,
+                                          linear, Minv, y, g, x)
+                if signs:
+                    status = _DEGENERATE
+                elif status == _OK and moved:
+                    status = _NOT_OPTIMAL
+            if not unique[p]:
+                status = _NON_UNIQUE
+        codes[p] = status
+        Jp = J[p]
+        if status != _OK:
+            for i in range(m):
+                for j in range(n):
+                    Jp[i, j] = np.nan
+            continue
+        if wrt == POSE:
+            for k in range(n):
+                yu[k] = rows[k] * y[k]
+            _pose_terms(kind, anchors, attachments, com, data[3], pose, Tp, yu, dAT, dAy, db)
+        _derivative(A, rows, q, free, nfree, linear, Minv, wrt, dAT, dAy, db, g, e, dy, x, Jp)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _derivative(A: NDArray, rows: NDArray, q: NDArray, free: NDArray, nfree: int,
+                linear: bool, Minv: NDArray, wrt: int, dAT: NDArray, dAy: NDArray,
+                db: NDArray, g: NDArray, e: NDArray, dy: NDArray, x: NDArray, Jp: NDArray
+                ) -> None:
+    """``Jp`` (m, n) of one pose from its reduced inverse, column by column."""
+    n, m = A.shape
+    for j in range(n):
+        for k in range(n):
+            if wrt == POSE:
+                g[k] = rows[k] * (db[k, j] - dAT[k, j])
+            else:
+                g[k] = -rows[k] if k == j else 0.0
+        for i in range(m):
+            e[i] = dAy[i, j] if wrt == POSE else 0.0  # r = dA' y
+        _reduced_solve(A, rows, q, free, nfree, linear, Minv, g, e, dy, x)
+        for i in range(m):
+            Jp[i, j] = 0.0
+        for a in range(nfree):
+            Jp[free[a], j] = x[a]
+    if (A.size | rows.size | q.size | free.size | Minv.size | dAT.size | dAy.size | db.size
+            | g.size | e.size | dy.size | x.size | Jp.size) < 0:
+        Jp[0, 0] = np.nan  # never: the arrays read after the branches
