@@ -19,6 +19,7 @@ the GIL).
 
 from __future__ import annotations
 
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
@@ -28,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from tension_opt.distribution.packing import pack_certified
 from tension_opt.robot import CableRobot
 
-__all__ = ["TASK", "compiled_jacobian", "warm_kernel"]
+__all__ = ["TASK", "RealtimeJacobian", "compiled_jacobian", "warm_kernel"]
 
 #: Poses per kernel call of a large batch (the threads' unit of work).
 TASK = 32768
@@ -59,6 +60,64 @@ def compiled_jacobian(solution: Any, wrt: str, robot: Any, poses: ArrayLike | No
     if arrays is None:
         return None
     return _run(data, arrays, 0 if wrt == "wrench" else 1, m, n, N)
+
+
+class RealtimeJacobian:
+    """The compiled Jacobian of the pose a :class:`~tension_opt.Distributor`'s kernel just
+    solved (:func:`tension_opt.kernels.sensitivity.jacobian_one`), from the tensions and
+    the certificate's multipliers the kernel leaves in its thread's work array. Built by
+    :meth:`of` where the route applies: the compiled closed form, one of the package's
+    objectives without min-max term, smoothing or rate limit, a Hessian zero or positive
+    for every cable."""
+
+    def __init__(self, data: NDArray, m: int, n: int, work_size: int) -> None:
+        from tension_opt.kernels.distributor import multipliers_offset
+        from tension_opt.kernels.first_use import announce
+        from tension_opt.kernels.launch import entry_point
+        from tension_opt.kernels.sensitivity import jacobian_one, work_floats
+
+        announce("Jacobians", jacobian_one)
+        self.data, self.m, self.n = data, m, n
+        self.offset = multipliers_offset(m, n)
+        self.floats = int(work_floats(m, n))
+        self._local = threading.local()
+        # The machine code for exactly the types the distributor passes (its own data,
+        # contiguous float vectors, its work array): no type dispatch per call.
+        self.kernel = entry_point(jacobian_one, data, np.zeros(n), np.zeros(m),
+                                  np.zeros(work_size), self.offset, True, 0, np.zeros((m, n)),
+                                  np.zeros(self.floats), np.zeros(m, dtype=np.int64))
+
+    @classmethod
+    def of(cls, robot: CableRobot, problem: Any, data: NDArray | None,
+           work_size: int) -> RealtimeJacobian | None:
+        """The route for a distributor of ``robot`` and ``problem`` whose packed problem
+        is ``data`` (None: the distributor has no compiled closed form), or None."""
+        from tension_opt.kernels.closed_form import HEADER
+
+        m = robot.m
+        if data is None or problem.is_sequential or data[7] != 0.0:
+            return None
+        if pack_certified(robot, problem, 0.0) is None:  # not one of the package's
+            return None
+        q = data[HEADER + 6 * m:HEADER + 7 * m]
+        if not ((q == 0.0).all() or (q > 0.0).all()):
+            return None
+        return cls(data, m, robot.dof, work_size)
+
+    def __call__(self, pose: NDArray, T: NDArray, work: NDArray, unique: bool,
+                 wrt: str) -> tuple[NDArray, int]:
+        """``(J (m, n), status code)`` of the pose just solved (contiguous float vectors
+        ``pose`` and ``T``; the distributor's ``work`` of this thread)."""
+        local = self._local
+        try:
+            floats, free = local.floats, local.free
+        except AttributeError:  # this thread's first call
+            floats, free = np.empty(self.floats), np.empty(self.m, dtype=np.int64)
+            local.floats, local.free = floats, free
+        J = np.empty((self.m, self.n))
+        code = self.kernel(self.data, pose, T, work, self.offset, unique,
+                           0 if wrt == "wrench" else 1, J, floats, free)
+        return J, code
 
 
 def _read_only(a: NDArray, dtype: Any) -> NDArray:
@@ -123,14 +182,17 @@ def _run(data: NDArray, arrays: tuple[NDArray, ...], wrt: int, m: int, n: int, N
 
 
 def warm_kernel() -> None:
-    """Compile the kernel (its one signature, or load it from numba's cache) on one pose
-    of the study robot, for the warm-up (:mod:`tension_opt.warmup`)."""
+    """Compile the kernels (their one signature each, or load them from numba's cache):
+    the batch's on one pose of the study robot, and the real-time path's entry point,
+    for the warm-up (:mod:`tension_opt.warmup`)."""
+    from tension_opt.kernels.distributor import certified_work_size
     from tension_opt.problem.form import TensionProblem
     from tension_opt.robot import presets
 
     robot = presets.algae_harvester()
     data = pack_certified(robot, TensionProblem("min_norm"), 0.0)
     assert data is not None
+    RealtimeJacobian(data, 4, 3, int(certified_work_size(4, 3)))
     arrays = (np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 3)), np.full((1, 4), 1e3),
               np.zeros((1, 4)), np.ones(1, dtype=bool), np.ones(1, dtype=bool))
     _run(data, tuple(_read_only(a, a.dtype) for a in arrays), 0, 4, 3, 1)

@@ -35,7 +35,6 @@ or strided view) compiles (once, then cached) a variant of the kernel.
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -47,6 +46,8 @@ from tension_opt.checks import as_finite, as_float_array
 from tension_opt.distribution.certified import CertifiedPlan, certified_plan
 from tension_opt.distribution.entry import CHUNK_SIZE, distribute
 from tension_opt.distribution.packing import pack_realtime
+from tension_opt.distribution.realtime_result import RealtimeResult
+from tension_opt.distribution.sensitivity import SENSITIVITY_STATUSES
 from tension_opt.distribution.solution import TensionSolution
 from tension_opt.errors import InvalidInputError
 from tension_opt.problem.form import TensionProblem, as_problem
@@ -64,56 +65,6 @@ _FALLBACK, _BAD_INPUT = 9, 8
 _F64 = np.dtype(np.float64)
 #: Status values by kernel code (a last entry for codes of poses solved otherwise).
 _STATUS_VALUES = np.array([s.value for s in _STATUS] + [""], dtype=STATUS_DTYPE)
-
-
-@dataclass(eq=False, slots=True)
-class RealtimeResult:
-    """Answer of a :class:`Distributor` call.
-
-    Attributes
-    ----------
-    tensions : ndarray, shape (m,) or (N, m)
-        Cable tensions (N), NaN where the pose has no solution; (m,) for one pose.
-    status : Status or ndarray of Status values, shape (N,)
-        As :attr:`tension_opt.TensionSolution.status` (a member for one pose).
-    unique : bool or ndarray of bool, shape (N,)
-        False where the optimum was a tie broken to the minimum 2-norm.
-    residual : float or ndarray, shape (N,)
-        Equilibrium residual ``||A T - b||`` (N, N m); NaN where not solved.
-    infeasibility : float or ndarray, shape (N,)
-        For infeasible poses where known, the smallest largest bound violation (N).
-    compiled : bool or ndarray of bool, shape (N,)
-        Whether the compiled kernel answered (else the numpy path did).
-    primal_residual, dual_residual, duality_gap : float or ndarray, shape (N,)
-        The certificate, as :attr:`tension_opt.TensionSolution.primal_residual` ...
-        (scaled measures; NaN where there is no solution): ``optimal`` only where all
-        three are within the accuracy target.
-    """
-
-    tensions: NDArray
-    status: Any
-    unique: Any
-    residual: Any
-    infeasibility: Any
-    compiled: Any
-    primal_residual: Any = _NAN
-    dual_residual: Any = _NAN
-    duality_gap: Any = _NAN
-
-    @property
-    def success(self) -> Any:
-        """Whether the pose (each pose) was solved to optimality."""
-        return np.asarray(self.status == Status.OPTIMAL) if np.ndim(self.status) else (
-            self.status == Status.OPTIMAL)
-
-    def certified(self, accuracy: object = None) -> Any:
-        """Whether the certificate of the pose (each pose) meets the target of
-        ``accuracy`` (default 1e-7, as :func:`tension_opt.distribute`'s option;
-        NaN fails)."""
-        t = accuracy_target(accuracy)
-        ok = (np.asarray(self.primal_residual) <= t) & (np.asarray(self.dual_residual) <= t) \
-            & (np.asarray(self.duality_gap) <= t)
-        return ok if np.ndim(self.status) else bool(ok)
 
 
 class Distributor:
@@ -172,6 +123,7 @@ class Distributor:
         self._data: NDArray | None = None
         self._daqp: dict[str, Any] | None = None
         self._plan: CertifiedPlan | None = None
+        self._jacobian_route: Any = None  # built on the first with_jacobian
         closed = self._closed_form_path()
         if form.G is None and (closed or self._daqp_path()):
             from tension_opt.kernels import closed_form
@@ -274,6 +226,59 @@ class Distributor:
                 and self._data is not None and pose.flags.c_contiguous):
             return self._one(pose, self._no_wrench, None, None)
         return self._general(pose, wrench, previous)
+
+    def with_jacobian(self, pose: ArrayLike, wrt: str = "pose",
+                      wrench: ArrayLike | None = None,
+                      previous: ArrayLike | None = None) -> RealtimeResult:
+        """One pose (n,) solved as a call solves it, with the Jacobian of its optimal
+        tensions by ``wrt`` (``"wrench"`` or ``"pose"``) in the result's ``jacobian``
+        (m, n) and ``jacobian_status``: the compiled kernel's where the pose went
+        through the compiled closed form (the package's objectives without min-max term,
+        smoothing or rate limit), else :meth:`TensionSolution.jacobian
+        <tension_opt.TensionSolution.jacobian>` of the same pose (the same statuses).
+
+        Raises
+        ------
+        InvalidInputError
+            For another ``wrt`` or a batch of poses (use :func:`tension_opt.distribute`
+            and ``solution.jacobian``), or bad input as a call raises it.
+        """
+        if wrt != "pose" and wrt != "wrench":
+            raise InvalidInputError(f"wrt must be 'wrench' or 'pose', got {wrt!r}: for "
+                                    "another, solve with tension_opt.distribute and call "
+                                    "solution.jacobian")
+        route = self._jacobian_route
+        if route is None:
+            from tension_opt.distribution.compiled_sensitivity import RealtimeJacobian
+
+            route = RealtimeJacobian.of(self.robot, self.problem, self.closed_form_data,
+                                        getattr(self, "_work_size", 0)) or False
+            self._jacobian_route = route
+        if (route and wrench is None and previous is None and type(pose) is np.ndarray
+                and pose.dtype is _F64 and pose.shape == self._shape
+                and pose.flags.c_contiguous):  # as __call__'s fast test
+            p, prev, result = pose, None, self._one(pose, self._no_wrench, None, None)
+        else:
+            p = np.ascontiguousarray(as_float_array("pose", pose))
+            if p.shape != self._shape:
+                raise InvalidInputError(f"pose must have shape {self._shape}: with_jacobian"
+                                        " takes one pose (a batch: tension_opt.distribute, "
+                                        "then solution.jacobian)")
+            prev = self._stream_start(previous)
+            result = self(p, wrench, prev)
+        if result.status is not Status.OPTIMAL:
+            J, status = np.full((self.robot.m, self.robot.dof), np.nan), "not_optimal"
+        elif route and result.compiled:
+            J, code = route(p, result.tensions, self._local.work, result.unique, wrt)
+            status = SENSITIVITY_STATUSES[code]
+        else:
+            sol = distribute(self.robot, p[None], self.problem, self.backend,
+                             wrench=wrench, previous=prev, **self.options)
+            sens = sol.jacobian(wrt, robot=self.robot, poses=p[None], wrench=wrench,
+                                previous=prev)
+            J, status = sens.jacobian[0], str(sens.status[0])
+        result.jacobian, result.jacobian_status = J, status
+        return result
 
     def _general(self, pose: ArrayLike, wrench: ArrayLike | None,
                  previous: ArrayLike | None) -> RealtimeResult:

@@ -63,6 +63,9 @@ __all__ = [
     "certified_one",
     "certified_sequence",
     "certified_work_size",
+    "matrix_at",
+    "multipliers_offset",
+    "vector_at",
 ]
 
 #: Codes of :func:`_pose` for a pose whose certificate needs the refit (its equilibrium
@@ -71,6 +74,13 @@ _REFIT, _REFIT_HELD = 10, 11
 #: Columns of a batch's ``info`` array: unique, equilibrium residual, infeasibility,
 #: primal residual, dual residual, duality gap.
 INFO = 6
+
+
+def multipliers_offset(m: int, n: int) -> int:
+    """Where :func:`certified_one` leaves the certificate's scaled bound multipliers
+    ``z`` (m,) of a problem without min-max term in its work array (the layout of
+    :func:`_views`), for the Jacobian of the pose it solved."""
+    return n * m + n + 4 * m + work_size(m, n) + 4 * n + 5 * m
 
 
 @njit(cache=True)
@@ -100,7 +110,7 @@ def _pointer(typingctx: Any, address: Any) -> Any:
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _vector(address: int, offset: int, size: int) -> NDArray:
+def vector_at(address: int, offset: int, size: int) -> NDArray:
     """``size`` floats from float ``offset`` of the buffer at ``address``, as an array
     that owns nothing (no reference count: numba's views of an owned array count theirs
     with two atomic operations each, 280 ns for a pose's twenty-eight)."""
@@ -108,28 +118,28 @@ def _vector(address: int, offset: int, size: int) -> NDArray:
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _matrix(address: int, offset: int, rows: int, cols: int) -> NDArray:
-    """A C-ordered (rows, cols) array over the buffer at ``address`` (see :func:`_vector`)."""
+def matrix_at(address: int, offset: int, rows: int, cols: int) -> NDArray:
+    """A C-ordered (rows, cols) array over the buffer at ``address`` (see :func:`vector_at`)."""
     return carray(_pointer(address + 8 * offset), (rows, cols))  # type: ignore[call-arg]
 
 
 @njit(cache=True, error_model="numpy")
 def _constants(data: NDArray) -> tuple[NDArray, ...]:
-    """The problem's arrays over ``data`` (owning nothing, see :func:`_vector`): anchors
+    """The problem's arrays over ``data`` (owning nothing, see :func:`vector_at`): anchors
     and attachments (m, 3), centre of mass (3,), and ``q0, c0, v, lb0, ub0, rate``
     (m,) (:func:`tension_opt.kernels.closed_form.pack`)."""
     m = int(data[1])
     a, o = data.ctypes.data, HEADER + 6 * m
     return (
-        _matrix(a, HEADER, m, 3),
-        _matrix(a, HEADER + 3 * m, m, 3),
-        _vector(a, 8, 3),
-        _vector(a, o, m),
-        _vector(a, o + m, m),
-        _vector(a, o + 2 * m, m),
-        _vector(a, o + 3 * m, m),
-        _vector(a, o + 4 * m, m),
-        _vector(a, o + 5 * m, m),
+        matrix_at(a, HEADER, m, 3),
+        matrix_at(a, HEADER + 3 * m, m, 3),
+        vector_at(a, 8, 3),
+        vector_at(a, o, m),
+        vector_at(a, o + m, m),
+        vector_at(a, o + 2 * m, m),
+        vector_at(a, o + 3 * m, m),
+        vector_at(a, o + 4 * m, m),
+        vector_at(a, o + 5 * m, m),
     )
 
 
@@ -147,50 +157,50 @@ def _views(data: NDArray, work: NDArray) -> tuple[tuple[NDArray, ...], tuple[NDA
     r = n + g
     a = work.ctypes.data
     o = 0
-    A = _matrix(a, o, n, m)
+    A = matrix_at(a, o, n, m)
     o += n * m
-    b = _vector(a, o, n)
+    b = vector_at(a, o, n)
     o += n
     q, c, lb, ub = (
-        _vector(a, o, m),
-        _vector(a, o + m, m),
-        _vector(a, o + 2 * m, m),
-        _vector(a, o + 3 * m, m),
+        vector_at(a, o, m),
+        vector_at(a, o + m, m),
+        vector_at(a, o + 2 * m, m),
+        vector_at(a, o + 3 * m, m),
     )
     o += 4 * m
-    rest = _vector(a, o, work_size(m, n))
+    rest = vector_at(a, o, work_size(m, n))
     o += work_size(m, n)
     rows, e, beq, y = (
-        _vector(a, o, n),
-        _vector(a, o + n, n),
-        _vector(a, o + 2 * n, n),
-        _vector(a, o + 3 * n, n),
+        vector_at(a, o, n),
+        vector_at(a, o + n, n),
+        vector_at(a, o + 2 * n, n),
+        vector_at(a, o + 3 * n, n),
     )
     o += 4 * n
     P, cs, lbs, ubs, x, z = (
-        _vector(a, o, k),
-        _vector(a, o + k, k),
-        _vector(a, o + 2 * k, k),
-        _vector(a, o + 3 * k, k),
-        _vector(a, o + 4 * k, k),
-        _vector(a, o + 5 * k, k),
+        vector_at(a, o, k),
+        vector_at(a, o + k, k),
+        vector_at(a, o + 2 * k, k),
+        vector_at(a, o + 3 * k, k),
+        vector_at(a, o + 4 * k, k),
+        vector_at(a, o + 5 * k, k),
     )
     o += 6 * k
-    grad, shrink, station = _vector(a, o, k), _vector(a, o + k, k), _vector(a, o + 2 * k, k)
+    grad, shrink, station = vector_at(a, o, k), vector_at(a, o + k, k), vector_at(a, o + 2 * k, k)
     o += 3 * k
-    Aeq = _matrix(a, o, n, k)
+    Aeq = matrix_at(a, o, n, k)
     o += n * k
-    G = _matrix(a, o, g, k)
+    G = matrix_at(a, o, g, k)
     o += g * k
-    h, mu = _vector(a, o, g), _vector(a, o + g, g)
+    h, mu = vector_at(a, o, g), vector_at(a, o + g, g)
     o += 2 * g
-    B = _matrix(a, o, k, r)
+    B = matrix_at(a, o, k, r)
     o += k * r
-    H = _matrix(a, o, r, r)
+    H = matrix_at(a, o, r, r)
     o += r * r
-    u = _vector(a, o, r)
+    u = vector_at(a, o, r)
     o += r
-    refit = _vector(a, o, refit_work_size(n, g, k))
+    refit = vector_at(a, o, refit_work_size(n, g, k))
     return (
         (A, b, q, c, lb, ub, rest),
         (rows, P, cs, Aeq, beq, G, h, lbs, ubs, x, y, mu, z, B, H, u, grad, shrink, station, e,

@@ -42,16 +42,20 @@ from numba import njit
 from numpy.typing import NDArray
 
 from tension_opt.kernels.certified import problem_views
+from tension_opt.kernels.closed_form import HEADER
+from tension_opt.kernels.distributor import matrix_at, vector_at
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, rotation
 from tension_opt.kernels.scaling import pose_scaling
 from tension_opt.tolerances import ROW_FLOOR, UB_SHARE
 
-__all__ = ["ACTIVE_TOL", "COND_MAX", "MULTIPLIER_TOL", "POSE", "WRENCH", "jacobian_poses"]
+__all__ = ["ACTIVE_TOL", "COND_MAX", "MULTIPLIER_TOL", "NON_UNIQUE", "POSE", "WRENCH",
+           "jacobian_one", "jacobian_poses", "pose_jacobian", "work_floats"]
 
 #: What a Jacobian is taken with respect to: the external wrench, the pose.
 WRENCH, POSE = 0, 1
 #: Statuses, in the order of :data:`tension_opt.distribution.sensitivity.SENSITIVITY_STATUSES`.
 _OK, _NON_UNIQUE, _DEGENERATE, _NOT_OPTIMAL = 0, 1, 2, 3
+NON_UNIQUE = _NON_UNIQUE
 #: The reference's tolerances (:mod:`tension_opt.distribution.sensitivity`).
 ACTIVE_TOL = 1e-5
 MULTIPLIER_TOL = 1e-5
@@ -124,10 +128,11 @@ def _kept(kind: int, k: int, f0: float, f1: float, f2: float, f3: float, f4: flo
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _step(kind: int, j: int, pose: NDArray) -> tuple[float, float, float, float, float,
-                                                    float]:
+def _step(kind: int, j: int, pose: NDArray, a: float, b: float
+          ) -> tuple[float, float, float, float, float, float]:
     """Translation ``t`` and small rotation ``omega`` of a unit step of pose coordinate
-    ``j`` (``omega`` about the base axes; the left Jacobian's column for spatial6)."""
+    ``j`` (``omega`` about the base axes; the left Jacobian's column for spatial6, whose
+    coefficients are ``a, b``: :func:`_left_coefficients`)."""
     t0 = t1 = t2 = w0 = w1 = w2 = 0.0
     if kind == 0 or (kind == 3 and j < 3):
         t0, t1, t2 = 1.0 if j == 0 else 0.0, 1.0 if j == 1 else 0.0, 1.0 if j == 2 else 0.0
@@ -137,12 +142,6 @@ def _step(kind: int, j: int, pose: NDArray) -> tuple[float, float, float, float,
         t0, t1, w2 = 1.0 if j == 0 else 0.0, 1.0 if j == 1 else 0.0, 1.0 if j == 2 else 0.0
     else:
         x, y, z = pose[3], pose[4], pose[5]
-        phi2 = x * x + y * y + z * z
-        if phi2 < 1e-8:  # the reference's series below phi = 1e-4
-            a, b = 0.5 - phi2 / 24.0, 1.0 / 6.0 - phi2 / 120.0
-        else:
-            phi = math.sqrt(phi2)
-            a, b = (1.0 - math.cos(phi)) / phi2, (phi - math.sin(phi)) / (phi2 * phi)
         e0, e1, e2 = 1.0 if j == 3 else 0.0, 1.0 if j == 4 else 0.0, 1.0 if j == 5 else 0.0
         # J_l e = e + a (theta x e) + b theta x (theta x e)
         c0, c1, c2 = y * e2 - z * e1, z * e0 - x * e2, x * e1 - y * e0
@@ -151,6 +150,23 @@ def _step(kind: int, j: int, pose: NDArray) -> tuple[float, float, float, float,
     if pose.size < 0:  # never: the pose read after the branches
         t0 = np.nan
     return t0, t1, t2, w0, w1, w2
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _left_coefficients(kind: int, pose: NDArray) -> tuple[float, float]:
+    """``a, b`` of the left Jacobian of SO(3) at a spatial6 pose's rotation vector
+    (``J_l = I + a [theta]x + b [theta]x^2``); zeros for other kinds."""
+    a = b = 0.0
+    if kind == 3:
+        phi2 = pose[3] * pose[3] + pose[4] * pose[4] + pose[5] * pose[5]
+        if phi2 < 1e-8:  # the reference's series below phi = 1e-4
+            a, b = 0.5 - phi2 / 24.0, 1.0 / 6.0 - phi2 / 120.0
+        else:
+            phi = math.sqrt(phi2)
+            a, b = (1.0 - math.cos(phi)) / phi2, (phi - math.sin(phi)) / (phi2 * phi)
+    if pose.size < 0:  # never: the pose read after the branches
+        a = np.nan
+    return a, b
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -170,20 +186,22 @@ def _pose_terms(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
     c0 = R00 * com[0] + R01 * com[1] + R02 * com[2]
     c1 = R10 * com[0] + R11 * com[1] + R12 * com[2]
     c2 = R20 * com[0] + R21 * com[1] + R22 * com[2]
-    for j in range(n):
-        t0, t1, t2, w0, w1, w2 = _step(kind, j, pose)
-        for k in range(n):
+    a, b = _left_coefficients(kind, pose)
+    for k in range(n):
+        for j in range(n):
             dAT[k, j] = 0.0
-        for i in range(m):
-            a0, a1, a2 = attachments[i, 0], attachments[i, 1], attachments[i, 2]
-            r0 = R00 * a0 + R01 * a1 + R02 * a2
-            r1 = R10 * a0 + R11 * a1 + R12 * a2
-            r2 = R20 * a0 + R21 * a1 + R22 * a2
-            v0 = anchors[i, 0] - (px + r0)
-            v1 = anchors[i, 1] - (py + r1)
-            v2 = anchors[i, 2] - (pz + r2)
-            L = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-            u0, u1, u2 = v0 / L, v1 / L, v2 / L
+    for i in range(m):  # each cable's vector once, then its column's step by each j
+        a0, a1, a2 = attachments[i, 0], attachments[i, 1], attachments[i, 2]
+        r0 = R00 * a0 + R01 * a1 + R02 * a2
+        r1 = R10 * a0 + R11 * a1 + R12 * a2
+        r2 = R20 * a0 + R21 * a1 + R22 * a2
+        v0 = anchors[i, 0] - (px + r0)
+        v1 = anchors[i, 1] - (py + r1)
+        v2 = anchors[i, 2] - (pz + r2)
+        L = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+        u0, u1, u2 = v0 / L, v1 / L, v2 / L
+        for j in range(n):
+            t0, t1, t2, w0, w1, w2 = _step(kind, j, pose, a, b)
             dr0, dr1, dr2 = w1 * r2 - w2 * r1, w2 * r0 - w0 * r2, w0 * r1 - w1 * r0
             dv0, dv1, dv2 = -t0 - dr0, -t1 - dr1, -t2 - dr2
             ud = u0 * dv0 + u1 * dv1 + u2 * dv2
@@ -197,9 +215,11 @@ def _pose_terms(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
                 dAT[k, j] += col * T[i]
                 total += col * yu[k]
             dAy[i, j] = total
+    for j in range(n):
         # d((R c) x f) = (omega x R c) x f with f = (0, 0, -weight); b takes it negated.
+        w0, w1, w2 = _step(kind, j, pose, a, b)[3:]
         e0, e1 = w1 * c2 - w2 * c1, w2 * c0 - w0 * c2
-        g0, g1 = e1 * weight, -e0 * weight  # -((omega x Rc) x f), f = (0, 0, -weight)
+        g0, g1 = e1 * weight, -e0 * weight
         for k in range(n):
             db[k, j] = _kept(kind, k, 0.0, 0.0, 0.0, g0, g1, 0.0)
     if (anchors.size | attachments.size | com.size | pose.size | T.size | yu.size
@@ -237,12 +257,38 @@ def jacobian_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray,
     """
     m, n = int(data[1]), int(data[2])
     # Work arrays made once and handed to the loop (see tension_opt.kernels).
-    work = (np.empty(n), np.empty(n), np.empty((n, m)), np.empty(n), np.empty(n),
-            np.empty(m, dtype=np.int64), np.empty(m), np.empty((n, n)), np.empty((n, n)),
-            np.empty(n), np.empty(n), np.empty((n, n)), np.empty((m, n)), np.empty((n, n)),
-            np.empty(n), np.empty(m), np.empty(n), np.empty(m))
+    floats = np.empty(work_floats(m, n))
     _loop(data, problem_views(data), poses, wrenches, T, z, solved, unique, wrt, J, codes,
-          work)
+          np.empty(m, dtype=np.int64), _carve(floats.ctypes.data, m, n))
+    if floats.size < 0:  # never: the buffer read after its views' last use
+        J[0, 0, 0] = np.nan
+
+
+@njit(cache=True)
+def work_floats(m: int, n: int) -> int:
+    """Floats of work space of one pose's Jacobian (:func:`_carve`)."""
+    return 8 * n + 5 * m + 3 * n * m + 4 * n * n
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _carve(address: int, m: int, n: int) -> tuple[NDArray, ...]:
+    """The work arrays over the buffer of :func:`work_floats` floats at ``address``,
+    owning nothing (no reference counts: see
+    :func:`tension_opt.kernels.distributor.vector_at`; the caller keeps the buffer
+    alive), in this order: ``pose, wrench, b, rows, y, yu, g, dy`` (n), ``bound, e, x,
+    Tp, zp`` (m), ``A`` (n, m), ``dAy, Jp`` (m, n), ``Mf, Minv, dAT, db`` (n, n)."""
+    nm, nn, o = n * m, n * n, 8 * n
+    p = o + 5 * m
+    q = p + 3 * nm
+    a = address
+    return (vector_at(a, 0, n), vector_at(a, n, n), vector_at(a, 2 * n, n),
+            vector_at(a, 3 * n, n), vector_at(a, 4 * n, n), vector_at(a, 5 * n, n),
+            vector_at(a, 6 * n, n), vector_at(a, 7 * n, n), vector_at(a, o, m),
+            vector_at(a, o + m, m), vector_at(a, o + 2 * m, m), vector_at(a, o + 3 * m, m),
+            vector_at(a, o + 4 * m, m), matrix_at(a, p, n, m), matrix_at(a, p + nm, m, n),
+            matrix_at(a, p + 2 * nm, m, n), matrix_at(a, q, n, n),
+            matrix_at(a, q + nn, n, n), matrix_at(a, q + 2 * nn, n, n),
+            matrix_at(a, q + 3 * nn, n, n))
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -277,17 +323,19 @@ def _reduced(A: NDArray, rows: NDArray, q: NDArray, free: NDArray, nfree: int,
     condition number (inf where the active set cannot fix a point)."""
     n = Mf.shape[0]
     cond = np.inf
-    if (linear and nfree == n) or (not linear and nfree >= n):
+    if linear and nfree == n:
         for k in range(n):
             for col in range(n):
-                if linear:
-                    Mf[k, col] = rows[k] * A[k, free[col]]
-                else:
-                    total = 0.0
-                    for a in range(nfree):
-                        i = free[a]
-                        total += A[k, i] * A[col, i] / q[i]
-                    Mf[k, col] = rows[k] * rows[col] * total
+                Mf[k, col] = rows[k] * A[k, free[col]]
+        cond = _invert(Mf, Minv, n)
+    elif not linear and nfree >= n:  # S is symmetric: its upper triangle, mirrored
+        for k in range(n):
+            for col in range(k, n):
+                total = 0.0
+                for a in range(nfree):
+                    i = free[a]
+                    total += A[k, i] * A[col, i] / q[i]
+                Mf[k, col] = Mf[col, k] = rows[k] * rows[col] * total
         cond = _invert(Mf, Minv, n)
     if (A.size | rows.size | q.size | free.size | Mf.size | Minv.size) < 0:
         cond = np.nan  # never: the arrays read after the branches
@@ -374,53 +422,114 @@ def _reduced_solve(A: NDArray, rows: NDArray, q: NDArray, free: NDArray, nfree: 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _loop(data: NDArray, views: tuple[NDArray, ...], poses: NDArray, wrenches: NDArray,
           T: NDArray, z: NDArray, solved: NDArray, unique: NDArray, wrt: int, J: NDArray,
-          codes: NDArray, work: tuple[NDArray, ...]) -> None:
+          codes: NDArray, free: NDArray, work: tuple[NDArray, ...]) -> None:
     """The loop of :func:`jacobian_poses` over its poses (``views`` of ``data`` and the
     work arrays as arguments: as the certified pass's loop)."""
-    pose, wrench, A, b, rows, free, bound, Mf, Minv, y, yu, dAT, dAy, db, g, e, dy, x = work
+    pose, wrench, b, rows, y, yu, g, dy, bound, e, x, Tp, zp, A, dAy, Jp, Mf, Minv, dAT, \
+        db = work
     anchors, attachments, com, q, c, _, lb, ub, _, _ = views
     kind, m, n = int(data[0]), int(data[1]), int(data[2])
-    linear = True
-    for i in range(m):
-        linear = linear and q[i] == 0.0
     for i in range(n):
         wrench[i] = wrenches[0, i]
     for p in range(poses.shape[0]):
-        status = _NOT_OPTIMAL
         for i in range(n):
             pose[i] = poses[p, i]
             if wrenches.shape[0] > 1:
                 wrench[i] = wrenches[p, i]
-        Tp = T[p]
+        for i in range(m):
+            Tp[i], zp[i] = T[p, i], z[p, i]  # copies: a view per pose costs more
+        status = _NOT_OPTIMAL
         if solved[p] and geometry_into(kind, anchors, attachments, com, data[3], data[4],
                                        pose, wrench, A, b) == GEOMETRY_OK:
-            s = pose_scaling(A, b, lb, ub, q, c, 0.0, UB_SHARE, ROW_FLOOR, rows)[0]
-            bad, nfree = _active(Tp, z[p], lb, ub, s, free, bound)
-            cond = _reduced(A, rows, q, free, nfree, linear, Mf, Minv)
-            status = _DEGENERATE if bad else _OK
-            if not cond <= COND_MAX:
-                status = _NON_UNIQUE if linear and nfree > n else _DEGENERATE
-            else:
-                signs, moved = _kkt_point(A, b, rows, q, c, lb, Tp, s, free, nfree, bound,
-                                          linear, Minv, y, g, x)
-                if signs:
-                    status = _DEGENERATE
-                elif status == _OK and moved:
-                    status = _NOT_OPTIMAL
+            status = pose_jacobian(data, anchors, attachments, com, pose, A, b, q, c, lb, ub,
+                                   Tp, zp, wrt, rows, free, bound, Mf, Minv, y, yu, dAT, dAy,
+                                   db, g, e, dy, x, Jp)
             if not unique[p]:
                 status = _NON_UNIQUE
         codes[p] = status
-        Jp = J[p]
-        if status != _OK:
-            for i in range(m):
-                for j in range(n):
-                    Jp[i, j] = np.nan
-            continue
+        for i in range(m):
+            for j in range(n):
+                J[p, i, j] = Jp[i, j] if status == _OK else np.nan
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def jacobian_one(data: NDArray, pose: NDArray, T: NDArray, work: NDArray, offset: int,
+                 unique: bool, wrt: int, J: NDArray, floats: NDArray, free: NDArray) -> int:
+    """:func:`jacobian_poses` of one pose the real-time kernel
+    (:func:`tension_opt.kernels.distributor.certified_one`) solved optimal, from what it
+    leaves in its work array ``work``: the pose's form (``A, b, q, c, lb, ub`` at its
+    start) and the bound multipliers at ``offset``
+    (:func:`tension_opt.kernels.distributor.multipliers_offset`). ``T`` (m,): its
+    tensions; ``J`` (m, n) written; ``floats`` (:func:`work_floats`) and ``free`` (m,
+    int64): this thread's work. Returns the status code (:data:`NON_UNIQUE` where the
+    optimum is not ``unique``)."""
+    m, n = int(data[1]), int(data[2])
+    _, _, _, rows, y, yu, g, dy, bound, e, x, _, _, _, dAy, _, Mf, Minv, dAT, db = _carve(
+        floats.ctypes.data, m, n)
+    # The pose's form where certified_one left it (distributor._views' layout), and the
+    # robot's points in data (problem_views'), as views owning nothing.
+    w, d, o = work.ctypes.data, data.ctypes.data, n * m + n
+    A, b = matrix_at(w, 0, n, m), vector_at(w, n * m, n)
+    q, c, lb, ub = (vector_at(w, o, m), vector_at(w, o + m, m), vector_at(w, o + 2 * m, m),
+                    vector_at(w, o + 3 * m, m))
+    status = pose_jacobian(data, matrix_at(d, HEADER, m, 3), matrix_at(d, HEADER + 3 * m, m, 3),
+                           vector_at(d, 8, 3), pose, A, b, q, c, lb, ub, T,
+                           vector_at(w, offset, m), wrt, rows, free, bound, Mf, Minv, y, yu,
+                           dAT, dAy, db, g, e, dy, x, J)
+    if not unique:
+        status = _NON_UNIQUE
+    if status != _OK:
+        for i in range(m):
+            for j in range(n):
+                J[i, j] = np.nan
+    if (data.size | work.size | floats.size) < 0:  # never: the buffers read after their
+        status = -1  # views' last use (they own nothing)
+    return status
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def pose_jacobian(data: NDArray, anchors: NDArray, attachments: NDArray, com: NDArray,
+                  pose: NDArray, A: NDArray, b: NDArray, q: NDArray, c: NDArray,
+                  lb: NDArray, ub: NDArray, T: NDArray, z: NDArray, wrt: int, rows: NDArray,
+                  free: NDArray, bound: NDArray, Mf: NDArray, Minv: NDArray, y: NDArray,
+                  yu: NDArray, dAT: NDArray, dAy: NDArray, db: NDArray, g: NDArray,
+                  e: NDArray, dy: NDArray, x: NDArray, Jp: NDArray) -> int:
+    """The Jacobian ``Jp`` (m, n) of one pose (written where the status is ``"ok"``) and
+    its status code, from the robot's data, the pose's form (``A, b, q, c, lb, ub``), its
+    optimal tensions ``T`` and scaled bound multipliers ``z``; ``rows`` to ``x``: work
+    (:func:`_carve`). At most 30 arguments: CPython passes more as a tuple, which
+    numba's inliner refuses."""
+    n, m = A.shape
+    linear = True
+    for i in range(m):
+        linear = linear and q[i] == 0.0
+    s = pose_scaling(A, b, lb, ub, q, c, 0.0, UB_SHARE, ROW_FLOOR, rows)[0]
+    bad, nfree = _active(T, z, lb, ub, s, free, bound)
+    cond = _reduced(A, rows, q, free, nfree, linear, Mf, Minv)
+    status = _DEGENERATE if bad else _OK
+    if not cond <= COND_MAX:
+        status = _NON_UNIQUE if linear and nfree > n else _DEGENERATE
+    else:
+        signs, moved = _kkt_point(A, b, rows, q, c, lb, T, s, free, nfree, bound, linear,
+                                  Minv, y, g, x)
+        if signs:
+            status = _DEGENERATE
+        elif status == _OK and moved:
+            status = _NOT_OPTIMAL
+    if status == _OK:
         if wrt == POSE:
             for k in range(n):
                 yu[k] = rows[k] * y[k]
-            _pose_terms(kind, anchors, attachments, com, data[3], pose, Tp, yu, dAT, dAy, db)
-        _derivative(A, rows, q, free, nfree, linear, Minv, wrt, dAT, dAy, db, g, e, dy, x, Jp)
+            _pose_terms(int(data[0]), anchors, attachments, com, data[3], pose, T, yu, dAT,
+                        dAy, db)
+        _derivative(A, rows, q, free, nfree, linear, Minv, wrt, dAT, dAy, db, g, e, dy, x,
+                    Jp)
+    if (data.size | anchors.size | attachments.size | com.size | pose.size | A.size
+            | b.size | q.size | c.size | lb.size | ub.size | T.size | z.size | rows.size
+            | free.size | bound.size | Mf.size | Minv.size | y.size | yu.size | dAT.size
+            | dAy.size | db.size | g.size | e.size | dy.size | x.size | Jp.size) < 0:
+        status = -1  # never: the arrays read after the branches
+    return status
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -104,3 +104,99 @@ def test_routes_the_compiled_path_only_where_it_applies():
     moved = chunked.jacobian("wrench", robot=robot, poses=poses + 0.5)
     assert not moved.ok.any() and np.isnan(moved.jacobian).all()
     assert (moved.status == "not_optimal").sum() >= 30
+
+
+# ------------------------------------------------------------ the real-time path
+@pytest.mark.parametrize("name", ["study", "cogiro", "kntu_planar", "point_xz_4cable"])
+@pytest.mark.parametrize("objective", ["min_sum", "min_norm", "centered"])
+def test_distributor_jacobian_is_the_solution_jacobian(name, objective):
+    robot = ROBOTS[name]()
+    poses = random_feasible_poses(robot, 12, seed=11)
+    dist = to.Distributor(robot, objective)
+    sol = to.distribute(robot, poses, objective, "closed_form")
+    for wrt in ("wrench", "pose"):
+        ref = sol.jacobian(wrt, robot=robot, poses=poses)
+        got = [dist.with_jacobian(np.ascontiguousarray(p), wrt) for p in poses]
+        assert all(g.compiled for g in got)
+        status = np.array([g.jacobian_status for g in got])
+        J = np.array([g.jacobian for g in got])
+        np.testing.assert_array_equal(status, ref.status)
+        ok = ref.ok
+        assert ok.sum() >= 6 and np.isnan(J[~ok]).all()
+        np.testing.assert_allclose(J[ok], ref.jacobian[ok], rtol=0,
+                                   atol=1e-9 * np.abs(ref.jacobian[ok]).max())
+        np.testing.assert_array_equal(np.array([g.tensions for g in got]), dist(poses).tensions)
+
+
+def test_distributor_jacobian_with_active_bounds_a_wrench_and_from_threads():
+    robot = ROBOTS["cogiro"]()
+    poses = random_feasible_poses(robot, 16, seed=5)
+    free = to.distribute(robot, poses, "min_norm", "closed_form").tensions
+    problem = to.TensionProblem("min_norm", t_min=float(np.quantile(free.min(axis=1), 0.4)),
+                                t_max=float(np.quantile(free.max(axis=1), 0.6)))
+    wrench = np.array([5.0, -3.0, 2.0, 0.1, 0.2, -0.1])
+    dist = to.Distributor(robot, problem)
+    sol = to.distribute(robot, poses, problem, "closed_form", wrench=wrench)
+    ref = sol.jacobian("pose", robot=robot, poses=poses, wrench=wrench)
+    assert len(set(ref.status)) >= 2
+
+    def run(_):
+        return [dist.with_jacobian(p, "pose", wrench=wrench) for p in poses]
+
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(4) as pool:
+        runs = list(pool.map(run, range(4)))
+    for got in runs:
+        np.testing.assert_array_equal([g.jacobian_status for g in got], ref.status)
+        J = np.array([g.jacobian for g in got])
+        np.testing.assert_allclose(J[ref.ok], ref.jacobian[ref.ok], rtol=0,
+                                   atol=1e-9 * np.abs(ref.jacobian[ref.ok]).max())
+
+
+def test_distributor_jacobian_off_the_compiled_route():
+    robot = ROBOTS["study"]()
+    poses = random_feasible_poses(robot, 4, seed=6)
+    # min-max: the numpy path's Jacobian of the same pose
+    dist = to.Distributor(robot, "min_max")
+    ref = to.distribute(robot, poses, "min_max", "closed_form").jacobian("wrench")
+    for k, p in enumerate(poses):
+        got = dist.with_jacobian(p, "wrench")
+        assert got.jacobian_status == ref.status[k]
+        np.testing.assert_allclose(got.jacobian, ref.jacobian[k], rtol=1e-9, atol=1e-12)
+    # a smoothed stream: against the previous tensions it was smoothed against
+    smoothed = to.TensionProblem("min_norm", smoothing=0.5)
+    dist = to.Distributor(robot, smoothed)
+    first = dist.with_jacobian(poses[0], "pose")
+    second = dist.with_jacobian(poses[1], "pose")
+    sol = to.distribute(robot, poses[1:2], smoothed, "closed_form", previous=first.tensions)
+    ref = sol.jacobian("pose", robot=robot, poses=poses[1:2], previous=first.tensions)
+    assert second.jacobian_status == ref.status[0] == "ok"
+    np.testing.assert_allclose(second.jacobian, ref.jacobian[0], rtol=1e-9, atol=1e-12)
+    # an unsolved pose: no Jacobian
+    out = to.Distributor(robot, "min_norm").with_jacobian(np.array([0.0, 0.0, -50.0]))
+    assert out.jacobian_status == "not_optimal" and np.isnan(out.jacobian).all()
+
+
+def test_distributor_jacobian_bad_input_is_named():
+    dist = to.Distributor(ROBOTS["study"]())
+    with pytest.raises(to.InvalidInputError, match="wrt must be"):
+        dist.with_jacobian(np.zeros(3), "t_min")
+    with pytest.raises(to.InvalidInputError, match="one pose"):
+        dist.with_jacobian(np.zeros((2, 3)))
+    assert dist(np.array([0.0, 0.0, 1.0])).jacobian is None  # a plain call has none
+
+
+def test_the_real_time_kernel_leaves_the_certificates_multipliers_where_read():
+    from tension_opt.kernels.distributor import multipliers_offset
+
+    robot = ROBOTS["study"]()
+    poses = random_feasible_poses(robot, 6, seed=1)
+    dist = to.Distributor(robot, "min_sum")
+    sol = to.distribute(robot, poses, "min_sum", "closed_form")
+    offset = multipliers_offset(robot.m, robot.dof)
+    for k, p in enumerate(poses):
+        dist(p)
+        z = dist._local.work[offset:offset + robot.m]
+        np.testing.assert_allclose(z, sol.multipliers.z[k], rtol=1e-9, atol=1e-12)
+        assert (np.abs(z) > 1e-5).any()  # a bound active: the read is not vacuous
