@@ -128,11 +128,10 @@ def _read_only(a: NDArray, dtype: Any) -> NDArray:
 
 
 def _arrays(solution: Any, robot: CableRobot, poses: ArrayLike, wrench: ArrayLike | None,
-            m: int, n: int, N: int) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray,
-                                             NDArray] | None:
-    """The kernel's inputs: poses, wrenches, tensions, bound multipliers and the masks of
-    the solved and unique poses; None where a shape does not fit (the numpy path then
-    raises its error)."""
+            m: int, n: int, N: int) -> tuple[NDArray, ...] | None:
+    """The kernel's inputs: poses, wrenches, tensions, bound and equation multipliers,
+    and the masks of the optimal and unique poses; None where a shape does not fit (the
+    numpy path then raises its error)."""
     p = robot.as_poses(poses)
     mult = solution.multipliers
     if len(p) != N or mult.z.shape != (N, m) or mult.y.shape != (N, n):
@@ -144,11 +143,10 @@ def _arrays(solution: Any, robot: CableRobot, poses: ArrayLike, wrench: ArrayLik
         if w.shape not in ((n,), (N, n)):
             return None
         w = w.reshape(-1, n)
-    T = solution.tensions
-    solved = solution.success & mult.known & np.isfinite(T).all(axis=1)
-    return (_read_only(p, float), _read_only(w, float), _read_only(T, float),
-            _read_only(mult.z, float), _read_only(solved, bool),
-            _read_only(solution.unique, bool))
+    # Finite tensions and multipliers are checked in the kernel.
+    return (_read_only(p, float), _read_only(w, float), _read_only(solution.tensions, float),
+            _read_only(mult.z, float), _read_only(mult.y, float),
+            _read_only(solution.success, bool), _read_only(solution.unique, bool))
 
 
 def _run(data: NDArray, arrays: tuple[NDArray, ...], wrt: int, m: int, n: int, N: int
@@ -161,14 +159,16 @@ def _run(data: NDArray, arrays: tuple[NDArray, ...], wrt: int, m: int, n: int, N
 
     announce("Jacobian", jacobian_poses)
     data = _read_only(data, float)
-    p, w, T, z, solved, unique = arrays
+    p, w, T, z, y, solved, unique = arrays
     J = np.empty((N, m, n))
     codes = np.empty(N, dtype=np.int8)
 
     def task(k: int) -> None:
         sl = slice(k * TASK, min(N, (k + 1) * TASK))
-        jacobian_poses(data, p[sl], w if len(w) == 1 else w[sl], T[sl], z[sl], solved[sl],
-                       unique[sl], wrt, J[sl], codes[sl])
+        # side_by_side given: the one signature the tests also call (an omitted default
+        # is a type of its own, and another compilation).
+        jacobian_poses(data, p[sl], w if len(w) == 1 else w[sl], T[sl], z[sl], y[sl],
+                       solved[sl], unique[sl], wrt, J[sl], codes[sl], True)
 
     tasks = -(-N // TASK)
     threads = min(tasks, max(1, configured_threads()))
@@ -194,5 +194,6 @@ def warm_kernel() -> None:
     assert data is not None
     RealtimeJacobian(data, 4, 3, int(certified_work_size(4, 3)))
     arrays = (np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 3)), np.full((1, 4), 1e3),
-              np.zeros((1, 4)), np.ones(1, dtype=bool), np.ones(1, dtype=bool))
+              np.zeros((1, 4)), np.zeros((1, 3)), np.ones(1, dtype=bool),
+              np.ones(1, dtype=bool))
     _run(data, tuple(_read_only(a, a.dtype) for a in arrays), 0, 4, 3, 1)

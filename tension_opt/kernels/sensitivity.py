@@ -41,11 +41,11 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from tension_opt.kernels.certified import problem_views
 from tension_opt.kernels.closed_form import HEADER
 from tension_opt.kernels.distributor import matrix_at, vector_at
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, rotation
 from tension_opt.kernels.scaling import pose_scaling
+from tension_opt.kernels.sensitivity_lanes import REDO, lane_jacobians
 from tension_opt.tolerances import ROW_FLOOR, UB_SHARE
 
 __all__ = ["ACTIVE_TOL", "COND_MAX", "MULTIPLIER_TOL", "NON_UNIQUE", "POSE", "WRENCH",
@@ -229,8 +229,8 @@ def _pose_terms(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def jacobian_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray,
-                   z: NDArray, solved: NDArray, unique: NDArray, wrt: int, J: NDArray,
-                   codes: NDArray) -> None:
+                   z: NDArray, y: NDArray, solved: NDArray, unique: NDArray, wrt: int,
+                   J: NDArray, codes: NDArray, side_by_side: bool = True) -> None:
     """Jacobians of the optimal tensions of independent poses (see the module docstring).
 
     Parameters
@@ -243,25 +243,58 @@ def jacobian_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray,
         External wrench besides gravity (N, N m), per pose or one for all.
     T : ndarray, shape (N, m)
         Optimal tensions (N).
-    z : ndarray, shape (N, m)
-        The certificate's bound multipliers (scaled: ``< 0`` lower, ``> 0`` upper).
+    z, y : ndarray, shapes (N, m) and (N, n)
+        The certificate's bound multipliers (scaled: ``< 0`` lower, ``> 0`` upper) and
+        equation multipliers (their finiteness alone is read).
     solved, unique : ndarray of bool, shape (N,)
-        Poses with a certified optimum and finite multipliers; poses whose optimum is
-        unique.
+        Poses with a certified optimum (differentiated where its tensions and
+        multipliers are finite); poses whose optimum is unique.
     wrt : int
         :data:`WRENCH` or :data:`POSE`.
     J : ndarray, shape (N, m, n)
         Written: ``dT / d wrt`` (NaN where the status is not ``"ok"``).
     codes : ndarray of int8, shape (N,)
         Written: the statuses' codes.
+    side_by_side : bool
+        False: every pose by the pose-by-pose loop, also for a point robot on four
+        cables, whose common poses otherwise run side by side
+        (:mod:`tension_opt.kernels.sensitivity_lanes`; the tests compare the two).
     """
     m, n = int(data[1]), int(data[2])
     # Work arrays made once and handed to the loop (see tension_opt.kernels).
-    floats = np.empty(work_floats(m, n))
-    _loop(data, problem_views(data), poses, wrenches, T, z, solved, unique, wrt, J, codes,
-          np.empty(m, dtype=np.int64), _carve(floats.ctypes.data, m, n))
-    if floats.size < 0:  # never: the buffer read after its views' last use
+    floats, free = np.empty(work_floats(m, n)), np.empty(m, dtype=np.int64)
+    work, views = _carve(floats.ctypes.data, m, n), _problem_at(data.ctypes.data, m)
+    if not (side_by_side and int(data[0]) == 0 and m == 4 and n == 3):
+        _loop(data, views, poses, wrenches, T, z, y, solved, unique, wrt, J, codes, free,
+              work)
+    else:  # a point robot on four cables: blocks of poses side by side, then the rest
+        anchors, attachments, _, q, c, lb, ub = views
+        top_lb = top_ub = 0.0
+        for i in range(m):
+            top_lb = max(top_lb, abs(lb[i])) if math.isfinite(lb[i]) else top_lb
+            top_ub = max(top_ub, abs(ub[i])) if math.isfinite(ub[i]) else top_ub
+        if lane_jacobians(data, (anchors, attachments, q, c, lb, ub), poses, wrenches, T,
+                          z, y, solved, unique, wrt, J, codes,
+                          (top_lb, top_ub, UB_SHARE, ROW_FLOOR)):
+            one = wrenches.shape[0] == 1
+            for p in range(poses.shape[0]):
+                if codes[p] == REDO:
+                    _loop(data, views, poses[p:p + 1], wrenches if one else wrenches[p:p + 1],
+                          T[p:p + 1], z[p:p + 1], y[p:p + 1], solved[p:p + 1],
+                          unique[p:p + 1], wrt, J[p:p + 1], codes[p:p + 1], free, work)
+    if (floats.size | data.size) < 0:  # never: the buffers read after their views' last use
         J[0, 0, 0] = np.nan
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _problem_at(d: int, m: int) -> tuple[NDArray, ...]:
+    """What the loop reads of the packed problem at address ``d``: anchors, attachments
+    (m, 3), centre of mass (3,) and ``q, c, lb, ub`` (m,) (the layout of
+    :func:`~tension_opt.kernels.certified.problem_views`), owning nothing."""
+    o = HEADER + 6 * m
+    return (matrix_at(d, HEADER, m, 3), matrix_at(d, HEADER + 3 * m, m, 3),
+            vector_at(d, 8, 3), vector_at(d, o, m), vector_at(d, o + m, m),
+            vector_at(d, o + 3 * m, m), vector_at(d, o + 4 * m, m))
 
 
 @njit(cache=True)
@@ -289,6 +322,20 @@ def _carve(address: int, m: int, n: int) -> tuple[NDArray, ...]:
             matrix_at(a, p + 2 * nm, m, n), matrix_at(a, q, n, n),
             matrix_at(a, q + nn, n, n), matrix_at(a, q + 2 * nn, n, n),
             matrix_at(a, q + 3 * nn, n, n))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def finite(T: NDArray, z: NDArray, y: NDArray) -> bool:
+    """Whether a pose's tensions and multipliers are all finite (the numpy path's
+    ``Multipliers.known`` and finite tensions)."""
+    ok = True
+    for v in T:
+        ok = ok and abs(v) < np.inf
+    for v in z:
+        ok = ok and abs(v) < np.inf
+    for v in y:
+        ok = ok and abs(v) < np.inf
+    return ok
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -421,13 +468,13 @@ def _reduced_solve(A: NDArray, rows: NDArray, q: NDArray, free: NDArray, nfree: 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _loop(data: NDArray, views: tuple[NDArray, ...], poses: NDArray, wrenches: NDArray,
-          T: NDArray, z: NDArray, solved: NDArray, unique: NDArray, wrt: int, J: NDArray,
-          codes: NDArray, free: NDArray, work: tuple[NDArray, ...]) -> None:
+          T: NDArray, z: NDArray, ym: NDArray, solved: NDArray, unique: NDArray, wrt: int,
+          J: NDArray, codes: NDArray, free: NDArray, work: tuple[NDArray, ...]) -> None:
     """The loop of :func:`jacobian_poses` over its poses (``views`` of ``data`` and the
     work arrays as arguments: as the certified pass's loop)."""
     pose, wrench, b, rows, y, yu, g, dy, bound, e, x, Tp, zp, A, dAy, Jp, Mf, Minv, dAT, \
         db = work
-    anchors, attachments, com, q, c, _, lb, ub, _, _ = views
+    anchors, attachments, com, q, c, lb, ub = views
     kind, m, n = int(data[0]), int(data[1]), int(data[2])
     for i in range(n):
         wrench[i] = wrenches[0, i]
@@ -439,8 +486,9 @@ def _loop(data: NDArray, views: tuple[NDArray, ...], poses: NDArray, wrenches: N
         for i in range(m):
             Tp[i], zp[i] = T[p, i], z[p, i]  # copies: a view per pose costs more
         status = _NOT_OPTIMAL
-        if solved[p] and geometry_into(kind, anchors, attachments, com, data[3], data[4],
-                                       pose, wrench, A, b) == GEOMETRY_OK:
+        if solved[p] and finite(Tp, zp, ym[p]) and geometry_into(
+                kind, anchors, attachments, com, data[3], data[4], pose, wrench, A,
+                b) == GEOMETRY_OK:
             status = pose_jacobian(data, anchors, attachments, com, pose, A, b, q, c, lb, ub,
                                    Tp, zp, wrt, rows, free, bound, Mf, Minv, y, yu, dAT, dAy,
                                    db, g, e, dy, x, Jp)
@@ -467,13 +515,13 @@ def jacobian_one(data: NDArray, pose: NDArray, T: NDArray, work: NDArray, offset
     _, _, _, rows, y, yu, g, dy, bound, e, x, _, _, _, dAy, _, Mf, Minv, dAT, db = _carve(
         floats.ctypes.data, m, n)
     # The pose's form where certified_one left it (distributor._views' layout), and the
-    # robot's points in data (problem_views'), as views owning nothing.
-    w, d, o = work.ctypes.data, data.ctypes.data, n * m + n
+    # robot's points in data, as views owning nothing.
+    w, o = work.ctypes.data, n * m + n
     A, b = matrix_at(w, 0, n, m), vector_at(w, n * m, n)
     q, c, lb, ub = (vector_at(w, o, m), vector_at(w, o + m, m), vector_at(w, o + 2 * m, m),
                     vector_at(w, o + 3 * m, m))
-    status = pose_jacobian(data, matrix_at(d, HEADER, m, 3), matrix_at(d, HEADER + 3 * m, m, 3),
-                           vector_at(d, 8, 3), pose, A, b, q, c, lb, ub, T,
+    anchors, attachments, com = _problem_at(data.ctypes.data, m)[:3]
+    status = pose_jacobian(data, anchors, attachments, com, pose, A, b, q, c, lb, ub, T,
                            vector_at(w, offset, m), wrt, rows, free, bound, Mf, Minv, y, yu,
                            dAT, dAy, db, g, e, dy, x, J)
     if not unique:

@@ -200,3 +200,35 @@ def test_the_real_time_kernel_leaves_the_certificates_multipliers_where_read():
         z = dist._local.work[offset:offset + robot.m]
         np.testing.assert_allclose(z, sol.multipliers.z[k], rtol=1e-9, atol=1e-12)
         assert (np.abs(z) > 1e-5).any()  # a bound active: the read is not vacuous
+
+
+@pytest.mark.parametrize(("t_max", "problem"), [
+    (np.inf, "min_sum"), (np.inf, "min_norm"), (6000.0, "min_sum"), (6000.0, "centered"),
+    (15000.0, to.TensionProblem("min_norm", t_min=2000.0)),
+    (15000.0, to.TensionProblem("min_sum", weights=[1.0, 2.0, 0.5, 1.5])),
+])
+@pytest.mark.parametrize("wrt", [0, 1])
+def test_four_cable_lanes_are_the_pose_by_pose_loop(t_max, problem, wrt):
+    """The point robot on four cables runs its common poses side by side; the others go
+    pose by pose. Both give the same statuses and Jacobians to rounding, here with
+    vertices, interior optima, poses on both bounds and unsolved poses."""
+    from tension_opt.distribution.compiled_sensitivity import _arrays
+    from tension_opt.distribution.packing import pack_certified
+    from tension_opt.kernels.sensitivity import jacobian_poses
+
+    robot = to.presets.algae_harvester(t_max=t_max)
+    rng = np.random.default_rng(4)
+    poses = np.column_stack([rng.uniform(-45, 45, 3000), rng.uniform(-28, 28, 3000),
+                             rng.uniform(-1.0, 4.0, 3000)])
+    sol = to.distribute(robot, poses, problem, "closed_form")
+    arrays = _arrays(sol, robot, poses, None, 4, 3, len(poses))
+    data = pack_certified(robot, sol.problem, 0.0)
+    out = [(np.empty((len(poses), 4, 3)), np.empty(len(poses), np.int8)) for _ in range(2)]
+    for (J, codes), side in zip(out, (True, False), strict=True):
+        jacobian_poses(data, *arrays, wrt, J, codes, side)
+    (Ja, ca), (Jb, cb) = out
+    np.testing.assert_array_equal(ca, cb)
+    ok = cb == 0
+    assert ok.sum() >= 300 and (~ok).any()
+    np.testing.assert_allclose(Ja[ok], Jb[ok], rtol=0, atol=1e-12 * np.abs(Jb[ok]).max())
+    assert np.isnan(Ja[~ok]).all()
