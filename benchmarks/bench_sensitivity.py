@@ -3,6 +3,7 @@
 ``python -m benchmarks.bench_sensitivity [N]``: N closed-form poses (default 10^5) of
 the study robot and of CoGiRo, ``min_sum`` and ``min_norm``; prints one line per robot,
 objective and ``wrt`` with both times (s) and their ratio (the warm second run of each).
+Then one pose through a ``Distributor`` with and without its Jacobian.
 Then the coupled sag model (:func:`catenary.coupled_jacobian`) on 200 poses of each
 robot against its own solve, and the design criteria's evaluation with their gradients.
 """
@@ -58,6 +59,30 @@ def coupled(N: int = 200) -> None:
                   f"{int(got.ok.sum())}/{N}")
 
 
+def realtime(calls: int = 2000) -> None:
+    """Print the median time (us) of one pose through a ``Distributor`` alone and with
+    its Jacobian (:meth:`~tension_opt.Distributor.with_jacobian`), ``calls`` calls each,
+    interleaved, for each robot, objective and ``wrt``."""
+    print("robot     objective  wrt      pose (us)  with Jacobian (us)  ratio")
+    for robot in (to.presets.algae_harvester(), to.presets.cogiro()):
+        pose = np.ascontiguousarray(random_feasible_poses(robot, 1, seed=4)[0])
+        for objective in ("min_sum", "min_norm"):
+            solver = to.Distributor(robot, objective)
+            for wrt in ("wrench", "pose"):
+                solver.with_jacobian(pose, wrt)
+                alone, both = [], []
+                for _ in range(calls):
+                    t0 = time.perf_counter()
+                    solver(pose)
+                    t1 = time.perf_counter()
+                    solver.with_jacobian(pose, wrt)
+                    alone.append(t1 - t0)
+                    both.append(time.perf_counter() - t1)
+                a, b = 1e6 * float(np.median(alone)), 1e6 * float(np.median(both))
+                print(f"{robot.kind:9s} {objective:9s}  {wrt:7s}  {a:9.2f}  {b:18.2f}  "
+                      f"{b / a:5.2f}")
+
+
 def criteria() -> None:
     """Print the time of one evaluation (value and gradient) of each design criterion on
     the study robot: the 25 poses of its path, a 17 x 11 x 3 grid of the pond."""
@@ -91,5 +116,6 @@ def criteria() -> None:
 
 if __name__ == "__main__":
     main(int(sys.argv[1]) if len(sys.argv) > 1 else 100_000)
+    realtime()
     coupled()
     criteria()

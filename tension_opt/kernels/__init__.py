@@ -58,6 +58,12 @@ itself, outside the inlined steps, and takes its arrays as arguments.
 same
   for a point robot on four cables, poses side by side in the vector unit, bit for bit
   the pose-by-pose loop;
+- :mod:`tension_opt.kernels.sensitivity`, :mod:`tension_opt.kernels.sensitivity_lanes`,
+  :mod:`tension_opt.kernels.derivatives`: the Jacobians of optimal tensions by the wrench
+  and the pose (numpy reference:
+  :class:`tension_opt.distribution.sensitivity.KktSystem`), four-cable point robots side
+  by side, and the structure matrix's derivatives by the pose (reference:
+  :func:`tension_opt.robot.derivatives.pose_derivatives`);
 - :mod:`tension_opt.kernels.launch`: when a batch kernel runs in parallel (large
   batches, one launch at a time, never in a forked child of an OpenMP process).
 """
