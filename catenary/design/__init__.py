@@ -23,6 +23,7 @@ from .space import (
     anchor_coordinate,
     attachment_coordinate,
     cable_diameter,
+    pulley_radius,
     winch_t_max,
 )
 
@@ -45,6 +46,7 @@ __all__ = [
     "attachment_coordinate",
     "cable_diameter",
     "optimize_design",
+    "pulley_radius",
     "soft_max",
     "winch_t_max",
 ]

@@ -6,10 +6,11 @@ and the constraints by their bounds, so that newtons, metres and cubic metres we
 alike.
 Without constraints the method is L-BFGS-B, with them SLSQP; both take the criteria's
 analytic gradients (:mod:`catenary.design.criteria`), and central differences (step
-1e-4 of each box) for a numeric criterion. A design that cannot hold a pose of a
-criterion (no tensions within its bounds) has the scaled objective :data:`PENALTY`, its
-constraints are violated by as much, and its gradient is zero: a line search that
-reaches one steps back. A start on such a design does not move and ends
+1e-4 of each box) for a numeric criterion, and for every criterion of a space over a
+robot with guide pulleys (:attr:`~catenary.design.DesignSpace.numeric`). A design
+that cannot hold a pose of a criterion (no tensions within its bounds) has the scaled
+objective :data:`PENALTY`, its constraints are violated by as much, and its gradient is
+zero: a line search that reaches one steps back. A start on such a design does not move and ends
 ``"infeasible"``; the other starts go on.
 """
 
@@ -192,7 +193,7 @@ class _Problem:
         got = self.values(u)[i]
         if not self.holds(u):
             return np.zeros(self.space.k)
-        if got.gradient is not None:
+        if got.gradient is not None and not self.space.numeric:
             return self.space.chain(got.gradient) * width
         out = np.empty(self.space.k)
         for j in range(self.space.k):

@@ -12,13 +12,21 @@ images (factors ``+1`` and ``-1``):
 - :func:`cable_diameter`: the cables' diameter (m); the cable keeps its material (the
   density and the modulus of the base robot's cable, or of a catalogue material given
   to the space): weight per length and ``EA`` scale with ``d^2``;
-- :func:`winch_t_max`: the upper tension bound of one or more winches (N).
+- :func:`winch_t_max`: the upper tension bound of one or more winches (N);
+- :func:`pulley_radius`: the wheel radius of one or more guide pulleys (m).
+
+A robot with guide pulleys is a space of its own kind (:attr:`DesignSpace.numeric`):
+the criteria's analytic derivatives span each cable from a fixed drawing point, so the
+optimiser differentiates every criterion of such a space by central differences, and
+only criteria whose values model pulleys evaluate on it (the straight-cable
+:class:`~catenary.design.PeakTension`, :class:`~catenary.design.TensionEnergy` and
+:class:`~catenary.design.CableStrength`; the sag-aware ones raise their error).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -30,12 +38,12 @@ from ..errors import InvalidDesignError
 from ..materials import get_material
 
 __all__ = ["KINDS", "DesignSpace", "DesignVariable", "RobotGradient", "anchor_coordinate",
-           "attachment_coordinate", "cable_diameter", "winch_t_max"]
+           "attachment_coordinate", "cable_diameter", "pulley_radius", "winch_t_max"]
 
 FloatArray = NDArray[np.float64]
 
 #: The kinds of design variable.
-KINDS = ("anchors", "attachments", "diameter", "t_max")
+KINDS = ("anchors", "attachments", "diameter", "t_max", "pulley_radius")
 _AXES = {"x": 0, "y": 1, "z": 2, 0: 0, 1: 1, 2: 2}
 
 
@@ -46,11 +54,11 @@ class DesignVariable:
     Attributes
     ----------
     name : str
-    kind : {"anchors", "attachments", "diameter", "t_max"}
+    kind : {"anchors", "attachments", "diameter", "t_max", "pulley_radius"}
     entries : tuple of (cable, axis, factor)
         The entries set to ``factor * x``: ``(cable, axis)`` of a point array for
-        ``"anchors"`` / ``"attachments"``, ``(cable, 0)`` for ``"t_max"``, none for
-        ``"diameter"``.
+        ``"anchors"`` / ``"attachments"``, ``(cable, 0)`` for ``"t_max"`` and
+        ``"pulley_radius"``, none for ``"diameter"``.
     lower, upper : float
         The box of ``x`` (m or N), finite, ``lower < upper``.
     """
@@ -72,9 +80,10 @@ class DesignVariable:
         if self.kind == "diameter" and not lo > 0:
             raise InvalidDesignError(f"variable {self.name!r}: a diameter's lower bound must "
                                      f"be > 0 m, got {lo!r}")
-        if self.kind == "t_max" and not lo > 0:
-            raise InvalidDesignError(f"variable {self.name!r}: a t_max's lower bound must be "
-                                     f"> 0 N, got {lo!r}")
+        if self.kind in ("t_max", "pulley_radius") and not lo > 0:
+            unit = "N" if self.kind == "t_max" else "m"
+            raise InvalidDesignError(f"variable {self.name!r}: a {self.kind}'s lower bound "
+                                     f"must be > 0 {unit}, got {lo!r}")
         if self.kind != "diameter" and not self.entries:
             raise InvalidDesignError(f"variable {self.name!r} sets no cable: give cables")
         if self.kind == "diameter" and self.entries:
@@ -89,9 +98,10 @@ class DesignVariable:
             if factor == 0 or not np.isfinite(factor):
                 raise InvalidDesignError(f"variable {self.name!r}: factors must be finite "
                                          "and nonzero")
-            if self.kind == "t_max" and (axis != 0 or factor <= 0):
-                raise InvalidDesignError(f"variable {self.name!r}: a t_max entry is (cable, "
-                                         "0, factor > 0) (winch_t_max)")
+            if self.kind in ("t_max", "pulley_radius") and (axis != 0 or factor <= 0):
+                raise InvalidDesignError(f"variable {self.name!r}: a {self.kind} entry is "
+                                         "(cable, 0, factor > 0) (winch_t_max, "
+                                         "pulley_radius)")
 
 
 def _entries(cables: int | Sequence[int], axis: int | str | None,
@@ -146,6 +156,14 @@ def winch_t_max(name: str, cables: int | Sequence[int], lower: float,
                 upper: float) -> DesignVariable:
     """The upper tension bound (N) of the winches of ``cables`` (shared)."""
     return DesignVariable(name, "t_max", _entries(cables, None, None, name), lower, upper)
+
+
+def pulley_radius(name: str, cables: int | Sequence[int], lower: float,
+                  upper: float) -> DesignVariable:
+    """The wheel radius (m) of the guide pulleys of ``cables`` (shared; each of these
+    cables must leave over a pulley in the space's robot)."""
+    return DesignVariable(name, "pulley_radius", _entries(cables, None, None, name), lower,
+                          upper)
 
 
 @dataclass(frozen=True, eq=False)
@@ -212,10 +230,6 @@ class DesignSpace:
         if not isinstance(self.robot, CableRobot):
             raise InvalidDesignError(f"robot must be a tension_opt.CableRobot, got "
                                      f"{type(self.robot).__name__}")
-        if self.robot.has_pulleys:
-            raise InvalidDesignError(
-                "a design space over a robot with guide pulleys is not supported: the "
-                "criteria's derivatives span each cable from a fixed drawing point")
         variables = tuple(self.variables)
         object.__setattr__(self, "variables", variables)
         if not variables or not all(isinstance(v, DesignVariable) for v in variables):
@@ -236,6 +250,13 @@ class DesignSpace:
                     raise InvalidDesignError(f"variables {seen[key]!r} and {v.name!r} both "
                                              f"set {v.kind} of cable {cable}")
                 seen[key] = v.name
+        pulleys = self.robot.pulleys
+        for v in variables:
+            if v.kind == "pulley_radius" and (pulleys is None or any(
+                    pulleys[cable] is None for cable, _, _ in v.entries)):
+                raise InvalidDesignError(
+                    f"variable {v.name!r} sets the pulley radius of a cable without a guide "
+                    "pulley: give the robot pulleys (robot.with_(pulleys=[...]))")
         if ("diameter" in self.kinds or self.material is not None) and self.robot.cable is None:
             raise InvalidDesignError(
                 "a cable diameter variable or material= needs a robot with cable properties "
@@ -247,6 +268,12 @@ class DesignSpace:
     def kinds(self) -> tuple[str, ...]:
         """The kind of each variable, shape (k,)."""
         return tuple(v.kind for v in self.variables)
+
+    @property
+    def numeric(self) -> bool:
+        """Whether the optimiser differentiates every criterion by central differences:
+        the robot has guide pulleys (module notes)."""
+        return bool(self.robot.has_pulleys)
 
     @property
     def k(self) -> int:
@@ -280,8 +307,14 @@ class DesignSpace:
                 continue
             cable, axis, factor = v.entries[0]
             source = {"anchors": r.anchors, "attachments": r.attachments}.get(v.kind)
-            value = (source[cable, axis] if source is not None
-                     else np.broadcast_to(r.t_max, (r.m,))[cable])
+            if v.kind == "pulley_radius":
+                wheel = None if r.pulleys is None else r.pulleys[cable]
+                assert wheel is not None  # checked when the space was made
+                value = wheel.radius
+            elif source is not None:
+                value = source[cable, axis]
+            else:
+                value = np.broadcast_to(r.t_max, (r.m,))[cable]
             out.append(value / factor)
         return np.clip(np.array(out, dtype=float), self.lower, self.upper)
 
@@ -313,6 +346,7 @@ class DesignSpace:
         anchors, attachments = r.anchors.copy(), r.attachments.copy()
         t_max = np.broadcast_to(np.asarray(r.t_max, dtype=float), (r.m,)).copy()
         cable = r.cable
+        pulleys = None if r.pulleys is None else list(r.pulleys)
         if self.material is not None and cable is not None:
             cable = self.cable_at(cable.diameter)
         for v, value in zip(self.variables, x, strict=True):
@@ -323,9 +357,16 @@ class DesignSpace:
                     anchors[cable_i, axis] = factor * value
                 elif v.kind == "attachments":
                     attachments[cable_i, axis] = factor * value
+                elif v.kind == "pulley_radius":
+                    wheel = None if pulleys is None else pulleys[cable_i]
+                    assert pulleys is not None and wheel is not None  # checked in the space
+                    pulleys[cable_i] = replace(wheel, radius=factor * value)
                 else:
                     t_max[cable_i] = factor * value
-        return r.with_(anchors=anchors, attachments=attachments, t_max=t_max, cable=cable)
+        if pulleys is None:
+            return r.with_(anchors=anchors, attachments=attachments, t_max=t_max, cable=cable)
+        return r.with_(anchors=anchors, attachments=attachments, t_max=t_max, cable=cable,
+                       pulleys=pulleys)
 
     def checked(self, x: ArrayLike) -> FloatArray:
         """``x`` as a float array of shape (k,), finite."""
@@ -336,7 +377,19 @@ class DesignSpace:
         return arr
 
     def chain(self, gradient: RobotGradient) -> FloatArray:
-        """A :class:`RobotGradient` carried to the variables, shape (k,)."""
+        """A :class:`RobotGradient` carried to the variables, shape (k,).
+
+        Raises
+        ------
+        InvalidDesignError
+            For a space over a robot with guide pulleys (:attr:`numeric`), whose
+            criteria are differentiated numerically.
+        """
+        if self.numeric:
+            raise InvalidDesignError(
+                "a space over a robot with guide pulleys has no analytic gradient: the "
+                "criteria span each cable from a fixed drawing point (the optimiser "
+                "differentiates them by central differences)")
         out = np.zeros(self.k)
         for j, v in enumerate(self.variables):
             if v.kind == "diameter":

@@ -389,8 +389,12 @@ def test_cable_strength_keeps_its_own_material() -> None:
                            [D.cable_diameter(0.01, 0.02)], material="unobtainium"),
      "unknown cable material"),
     (lambda: study_space().robot_at([1.0, 2.0]), "5 finite numbers"),
+    (lambda: D.DesignSpace(to.presets.algae_harvester(),
+                           [D.pulley_radius("r", [0], 0.1, 0.5)]), "without a guide pulley"),
+    (lambda: D.pulley_radius("r", [0], 0.0, 0.5), "pulley_radius's lower bound"),
     (lambda: D.DesignSpace(to.presets.algae_harvester().with_(pulleys=[to.Pulley(0.3)] * 4),
-                           [D.anchor_coordinate("a", [0], "z", 1, 2)]), "guide pulleys"),
+                           [D.pulley_radius("r", [0], 0.1, 0.5)]).chain(
+                               D.RobotGradient.zeros(4)), "no analytic gradient"),
     (lambda: D.DesignConstraint(D.TensionEnergy(PATH)), "no bound"),
     (lambda: D.WorkspaceCoverage(study_grid(), -1.0), "cell_volume"),
     (lambda: D.PeakTension(np.full((2, 3), np.nan)), "path"),
@@ -404,3 +408,37 @@ def test_cable_strength_keeps_its_own_material() -> None:
 def test_bad_input_names_the_argument(make, match: str) -> None:  # type: ignore[no-untyped-def]
     with pytest.raises((InvalidDesignError, catenary.InvalidCableError), match=match):
         make()
+
+
+# ------------------------------------------------------------------ guide pulleys
+def pulley_space():
+    robot = to.presets.algae_harvester(t_max=15000.0).with_(
+        pulleys=[to.Pulley(0.3, [0, 0, -1])] * 4)
+    return D.DesignSpace(robot, [D.pulley_radius("wheel radius", [0, 1, 2, 3], 0.05, 1.5),
+                                 D.anchor_coordinate("tower height", [0, 1, 2, 3], "z",
+                                                     4.0, 12.0)])
+
+
+def test_a_pulley_radius_sets_the_wheels_and_is_optimised_numerically():
+    space = pulley_space()
+    assert space.numeric
+    np.testing.assert_allclose(space.x0, [0.3, space.robot.anchors[0, 2]])
+    robot = space.robot_at([0.8, 7.0])
+    assert all(p.radius == 0.8 for p in robot.pulleys)
+    assert (robot.anchors[:, 2] == 7.0).all()
+    # The radius moves the exit points, so the straight cables' peak tension.
+    peak = D.PeakTension(PATH)
+    values = [peak.evaluate(space.robot_at([r, 7.0])).plain for r in (0.05, 0.8, 1.5)]
+    assert values[0] > values[1] > values[2]
+    result = D.optimize_design(space, peak, starts=2, max_iter=30, progress=False)
+    assert result.status == "converged"
+    start = peak.evaluate(space.robot_at(space.x0)).plain
+    assert result.objective < 0.9 * start
+    assert (result.x >= space.lower).all() and (result.x <= space.upper).all()
+
+
+def test_a_sag_criterion_on_a_pulley_space_names_what_is_missing():
+    from catenary.errors import InvalidCableError
+
+    with pytest.raises(InvalidCableError, match="guide pulleys"):
+        D.optimize_design(pulley_space(), D.SagCorrection(PATH), starts=1, progress=False)
