@@ -196,6 +196,25 @@ def test_random_five_cable_robots_against_finite_differences(case, objective):
     check(robot, poses[solved], objective, ("wrench", "pose", "t_min"))
 
 
+@SETTINGS
+@given(random_robot(), st.sampled_from(["min_sum", "min_norm", "centered"]))
+def test_random_robots_compiled_jacobian_is_the_numpy_one(case, objective):
+    """A batch solved in chunks (no form kept) takes the compiled kernel, with its
+    four-cable lanes; the whole batch the numpy path: the same statuses and numbers."""
+    robot, poses = case
+    whole = to.distribute(robot, poses, objective, "closed_form")
+    chunked = to.distribute(robot, poses, objective, "closed_form", chunk_size=2)
+    assume(whole.success.sum() >= 2)
+    for wrt in ("wrench", "pose"):
+        a = whole.jacobian(wrt, robot=robot, poses=poses)
+        b = chunked.jacobian(wrt, robot=robot, poses=poses)
+        np.testing.assert_array_equal(a.status, b.status)
+        ok = a.ok
+        scale = max(np.abs(a.jacobian[ok]).max(initial=0.0), 1e-12)
+        np.testing.assert_allclose(b.jacobian[ok], a.jacobian[ok], rtol=0, atol=1e-9 * scale)
+        assert np.isnan(b.jacobian[~ok]).all()
+
+
 # ------------------------------------------------------- where no derivative exists
 def test_symmetric_min_sum_is_non_unique():
     robot = to.presets.algae_harvester()
