@@ -180,7 +180,7 @@ COMPILE_SECONDS: dict[str, float] = {
     "catenary: sagging-cable interference": 8.0,
     "certificate of generic solvers": 17.0,
     "time-optimal timing": 15.0,
-    "Jacobians": 13.0,
+    "Jacobians": 50.0,
     "robot geometry": 2.0,
     "wrench-space margin": 2.0,
 }

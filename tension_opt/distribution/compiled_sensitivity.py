@@ -19,7 +19,6 @@ the GIL).
 
 from __future__ import annotations
 
-import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
@@ -79,8 +78,7 @@ class RealtimeJacobian:
         announce("Jacobians", jacobian_one)
         self.data, self.m, self.n = data, m, n
         self.offset = multipliers_offset(m, n)
-        self.floats = int(work_floats(m, n))
-        self._local = threading.local()
+        self.floats, self.shape = int(work_floats(m, n)), (m, n)
         # The machine code for exactly the types the distributor passes (its own data,
         # contiguous float vectors, its work array): no type dispatch per call.
         self.kernel = entry_point(jacobian_one, data, np.zeros(n), np.zeros(m),
@@ -104,19 +102,19 @@ class RealtimeJacobian:
             return None
         return cls(data, m, robot.dof, work_size)
 
-    def __call__(self, pose: NDArray, T: NDArray, work: NDArray, unique: bool,
+    def __call__(self, pose: NDArray, T: NDArray, local: Any, unique: bool,
                  wrt: str) -> tuple[NDArray, int]:
         """``(J (m, n), status code)`` of the pose just solved (contiguous float vectors
-        ``pose`` and ``T``; the distributor's ``work`` of this thread)."""
-        local = self._local
+        ``pose`` and ``T``; ``local``: the distributor's thread-local state, whose
+        ``work`` the real-time kernel wrote and which keeps this thread's buffers)."""
         try:
-            floats, free = local.floats, local.free
+            floats, free = local.jacobian_work
         except AttributeError:  # this thread's first call
             floats, free = np.empty(self.floats), np.empty(self.m, dtype=np.int64)
-            local.floats, local.free = floats, free
-        J = np.empty((self.m, self.n))
-        code = self.kernel(self.data, pose, T, work, self.offset, unique,
-                           0 if wrt == "wrench" else 1, J, floats, free)
+            local.jacobian_work = floats, free
+        J = np.empty(self.shape)
+        code = self.kernel(self.data, pose, T, local.work, self.offset, unique,
+                           1 if wrt == "pose" else 0, J, floats, free)
         return J, code
 
 

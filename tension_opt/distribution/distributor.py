@@ -269,7 +269,7 @@ class Distributor:
         if result.status is not Status.OPTIMAL:
             J, status = np.full((self.robot.m, self.robot.dof), np.nan), "not_optimal"
         elif route and result.compiled:
-            J, code = route(p, result.tensions, self._local.work, result.unique, wrt)
+            J, code = route(p, result.tensions, self._local, result.unique, wrt)
             status = SENSITIVITY_STATUSES[code]
         else:
             sol = distribute(self.robot, p[None], self.problem, self.backend,

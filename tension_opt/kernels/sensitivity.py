@@ -184,7 +184,7 @@ def _problem_at(d: int, m: int) -> tuple[NDArray, ...]:
 @njit(cache=True)
 def work_floats(m: int, n: int) -> int:
     """Floats of work space of one pose's Jacobian (:func:`_carve`)."""
-    return 8 * n + 5 * m + 3 * n * m + 4 * n * n
+    return 8 * n + 6 * m + 3 * n * m + 4 * n * n
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -193,19 +193,29 @@ def _carve(address: int, m: int, n: int) -> tuple[NDArray, ...]:
     owning nothing (no reference counts: see
     :func:`tension_opt.kernels.distributor.vector_at`; the caller keeps the buffer
     alive), in this order: ``pose, wrench, b, rows, y, yu, g, dy`` (n), ``bound, e, x,
-    Tp, zp`` (m), ``A`` (n, m), ``dAy, Jp`` (m, n), ``Mf, Minv, dAT, db`` (n, n)."""
+    Tp, zp, iq`` (m), ``A`` (n, m), ``dAy, Jp`` (m, n), ``Mf, Minv, dAT, db`` (n, n)."""
     nm, nn, o = n * m, n * n, 8 * n
-    p = o + 5 * m
+    p = o + 6 * m
     q = p + 3 * nm
     a = address
     return (vector_at(a, 0, n), vector_at(a, n, n), vector_at(a, 2 * n, n),
             vector_at(a, 3 * n, n), vector_at(a, 4 * n, n), vector_at(a, 5 * n, n),
             vector_at(a, 6 * n, n), vector_at(a, 7 * n, n), vector_at(a, o, m),
             vector_at(a, o + m, m), vector_at(a, o + 2 * m, m), vector_at(a, o + 3 * m, m),
-            vector_at(a, o + 4 * m, m), matrix_at(a, p, n, m), matrix_at(a, p + nm, m, n),
+            vector_at(a, o + 4 * m, m), vector_at(a, o + 5 * m, m), matrix_at(a, p, n, m),
+            matrix_at(a, p + nm, m, n),
             matrix_at(a, p + 2 * nm, m, n), matrix_at(a, q, n, n),
             matrix_at(a, q + nn, n, n), matrix_at(a, q + 2 * nn, n, n),
             matrix_at(a, q + 3 * nn, n, n))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def inverted(q: NDArray, iq: NDArray) -> NDArray:
+    """``iq = 1 / q`` (infinite where ``q`` is zero), written and returned: the kernels
+    multiply by it (a division costs several multiplications)."""
+    for i in range(q.size):
+        iq[i] = 1.0 / q[i] if q[i] != 0.0 else np.inf
+    return iq
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -248,7 +258,7 @@ def _active(T: NDArray, z: NDArray, lb: NDArray, ub: NDArray, s: float, free: ND
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _reduced(A: NDArray, rows: NDArray, q: NDArray, free: NDArray, nfree: int,
+def _reduced(A: NDArray, rows: NDArray, iq: NDArray, free: NDArray, nfree: int,
              linear: bool, Mf: NDArray, Minv: NDArray) -> float:
     """The reduced matrix (``Ar_F``, square, or ``S``) inverted into ``Minv``; its 1-norm
     condition number (inf where the active set cannot fix a point)."""
@@ -265,16 +275,16 @@ def _reduced(A: NDArray, rows: NDArray, q: NDArray, free: NDArray, nfree: int,
                 total = 0.0
                 for a in range(nfree):
                     i = free[a]
-                    total += A[k, i] * A[col, i] / q[i]
+                    total += A[k, i] * A[col, i] * iq[i]
                 Mf[k, col] = Mf[col, k] = rows[k] * rows[col] * total
         cond = _invert(Mf, Minv, n)
-    if (A.size | rows.size | q.size | free.size | Mf.size | Minv.size) < 0:
+    if (A.size | rows.size | iq.size | free.size | Mf.size | Minv.size) < 0:
         cond = np.nan  # never: the arrays read after the branches
     return cond
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _kkt_point(A: NDArray, b: NDArray, rows: NDArray, q: NDArray, c: NDArray, lb: NDArray,
+def _kkt_point(A: NDArray, b: NDArray, rows: NDArray, iq: NDArray, c: NDArray, lb: NDArray,
                T: NDArray, s: float, free: NDArray, nfree: int, bound: NDArray,
                linear: bool, Minv: NDArray, y: NDArray, g: NDArray, x: NDArray
                ) -> tuple[bool, bool]:
@@ -294,7 +304,7 @@ def _kkt_point(A: NDArray, b: NDArray, rows: NDArray, q: NDArray, c: NDArray, lb
             for a in range(n):
                 total -= Minv[a, k] * c[free[a]]
             y[k] = total
-    _reduced_solve(A, rows, q, free, nfree, linear, Minv, g, c, y, x)
+    _reduced_solve(A, rows, iq, free, nfree, linear, Minv, g, c, y, x)
     moved = False
     for a in range(nfree):
         if not abs(x[a] - T[free[a]]) / s <= 10 * ACTIVE_TOL:
@@ -302,20 +312,20 @@ def _kkt_point(A: NDArray, b: NDArray, rows: NDArray, q: NDArray, c: NDArray, lb
     signs = False
     for i in range(m):
         if bound[i] == bound[i]:
-            zi = q[i] * bound[i] + c[i]
+            zi = bound[i] / iq[i] + c[i]  # q_i bound_i (iq infinite: q zero)
             for k in range(n):
                 zi += rows[k] * A[k, i] * y[k]
             zi = -zi
             if (bound[i] == lb[i] and not zi < 0.0) or (bound[i] != lb[i] and not zi > 0.0):
                 signs = True
-    if (A.size | b.size | rows.size | q.size | c.size | lb.size | T.size | free.size
+    if (A.size | b.size | rows.size | iq.size | c.size | lb.size | T.size | free.size
             | bound.size | Minv.size | y.size | g.size | x.size) < 0:
         signs = True  # never: the arrays read after the branches
     return signs, moved
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _reduced_solve(A: NDArray, rows: NDArray, q: NDArray, free: NDArray, nfree: int,
+def _reduced_solve(A: NDArray, rows: NDArray, iq: NDArray, free: NDArray, nfree: int,
                    linear: bool, Minv: NDArray, g: NDArray, e: NDArray, y: NDArray,
                    x: NDArray) -> None:
     """The free tensions ``x`` (``nfree``) of the reduced KKT system whose equations'
@@ -333,7 +343,7 @@ def _reduced_solve(A: NDArray, rows: NDArray, q: NDArray, free: NDArray, nfree: 
         for k in range(n):
             for a in range(nfree):
                 i = free[a]
-                g[k] += rows[k] * A[k, i] * e[i] / q[i]
+                g[k] += rows[k] * A[k, i] * e[i] * iq[i]
         for k in range(n):
             total = 0.0
             for col in range(n):
@@ -344,8 +354,8 @@ def _reduced_solve(A: NDArray, rows: NDArray, q: NDArray, free: NDArray, nfree: 
             total = e[i]
             for k in range(n):
                 total += rows[k] * A[k, i] * y[k]
-            x[a] = -total / q[i]
-    if (A.size | rows.size | q.size | free.size | Minv.size | g.size | e.size | y.size
+            x[a] = -total * iq[i]
+    if (A.size | rows.size | iq.size | free.size | Minv.size | g.size | e.size | y.size
             | x.size) < 0:
         x[0] = np.nan  # never: the arrays read after the branches
 
@@ -356,10 +366,11 @@ def _loop(data: NDArray, views: tuple[NDArray, ...], poses: NDArray, wrenches: N
           J: NDArray, codes: NDArray, free: NDArray, work: tuple[NDArray, ...]) -> None:
     """The loop of :func:`jacobian_poses` over its poses (``views`` of ``data`` and the
     work arrays as arguments: as the certified pass's loop)."""
-    pose, wrench, b, rows, y, yu, g, dy, bound, e, x, Tp, zp, A, dAy, Jp, Mf, Minv, dAT, \
-        db = work
+    pose, wrench, b, rows, y, yu, g, dy, bound, e, x, Tp, zp, iq, A, dAy, Jp, Mf, Minv, \
+        dAT, db = work
     anchors, attachments, com, q, c, lb, ub = views
     kind, m, n = int(data[0]), int(data[1]), int(data[2])
+    inverted(q, iq)
     for i in range(n):
         wrench[i] = wrenches[0, i]
     for p in range(poses.shape[0]):
@@ -373,9 +384,9 @@ def _loop(data: NDArray, views: tuple[NDArray, ...], poses: NDArray, wrenches: N
         if solved[p] and finite(Tp, zp, ym[p]) and geometry_into(
                 kind, anchors, attachments, com, data[3], data[4], pose, wrench, A,
                 b) == GEOMETRY_OK:
-            status = pose_jacobian(data, anchors, attachments, com, pose, A, b, q, c, lb, ub,
-                                   Tp, zp, wrt, rows, free, bound, Mf, Minv, y, yu, dAT, dAy,
-                                   db, g, e, dy, x, Jp)
+            status = pose_jacobian(kind, data[3], anchors, attachments, com, pose, A, b, iq, c,
+                                   lb, ub, Tp, zp, wrt, rows, free, bound, Mf, Minv, y, yu,
+                                   dAT, dAy, db, g, e, dy, x, Jp)
             if not unique[p]:
                 status = _NON_UNIQUE
         codes[p] = status
@@ -396,7 +407,7 @@ def jacobian_one(data: NDArray, pose: NDArray, T: NDArray, work: NDArray, offset
     int64): this thread's work. Returns the status code (:data:`NON_UNIQUE` where the
     optimum is not ``unique``)."""
     m, n = int(data[1]), int(data[2])
-    _, _, _, rows, y, yu, g, dy, bound, e, x, _, _, _, dAy, _, Mf, Minv, dAT, db = _carve(
+    _, _, _, rows, y, yu, g, dy, bound, e, x, _, _, iq, _, dAy, _, Mf, Minv, dAT, db = _carve(
         floats.ctypes.data, m, n)
     # The pose's form where certified_one left it (distributor._views' layout), and the
     # robot's points in data, as views owning nothing.
@@ -405,44 +416,51 @@ def jacobian_one(data: NDArray, pose: NDArray, T: NDArray, work: NDArray, offset
     q, c, lb, ub = (vector_at(w, o, m), vector_at(w, o + m, m), vector_at(w, o + 2 * m, m),
                     vector_at(w, o + 3 * m, m))
     anchors, attachments, com = _problem_at(data.ctypes.data, m)[:3]
-    status = pose_jacobian(data, anchors, attachments, com, pose, A, b, q, c, lb, ub, T,
-                           vector_at(w, offset, m), wrt, rows, free, bound, Mf, Minv, y, yu,
-                           dAT, dAy, db, g, e, dy, x, J)
+    # The caller's arrays as views owning nothing too: no reference counts in the call.
+    status = pose_jacobian(int(data[0]), data[3], anchors, attachments, com,
+                           vector_at(pose.ctypes.data, 0, n), A, b, inverted(q, iq), c, lb, ub,
+                           vector_at(T.ctypes.data, 0, m), vector_at(w, offset, m), wrt, rows,
+                           free, bound, Mf, Minv, y, yu, dAT, dAy, db, g, e, dy, x,
+                           matrix_at(J.ctypes.data, 0, m, n))
     if not unique:
         status = _NON_UNIQUE
     if status != _OK:
         for i in range(m):
             for j in range(n):
                 J[i, j] = np.nan
-    if (data.size | work.size | floats.size) < 0:  # never: the buffers read after their
-        status = -1  # views' last use (they own nothing)
+    if (data.size | work.size | floats.size | pose.size | T.size | J.size) < 0:
+        status = -1  # never: the buffers read after their views' last use (they own nothing)
     return status
 
 
-@njit(cache=True, error_model="numpy", inline="always")
-def pose_jacobian(data: NDArray, anchors: NDArray, attachments: NDArray, com: NDArray,
-                  pose: NDArray, A: NDArray, b: NDArray, q: NDArray, c: NDArray,
+@njit(cache=True, nogil=True, error_model="numpy")
+def pose_jacobian(kind: int, weight: float, anchors: NDArray, attachments: NDArray,
+                  com: NDArray, pose: NDArray, A: NDArray, b: NDArray, iq: NDArray, c: NDArray,
                   lb: NDArray, ub: NDArray, T: NDArray, z: NDArray, wrt: int, rows: NDArray,
                   free: NDArray, bound: NDArray, Mf: NDArray, Minv: NDArray, y: NDArray,
                   yu: NDArray, dAT: NDArray, dAy: NDArray, db: NDArray, g: NDArray,
                   e: NDArray, dy: NDArray, x: NDArray, Jp: NDArray) -> int:
     """The Jacobian ``Jp`` (m, n) of one pose (written where the status is ``"ok"``) and
-    its status code, from the robot's data, the pose's form (``A, b, q, c, lb, ub``), its
+    its status code, from the robot's data, the pose's form (``A, b, c, lb, ub``, and ``iq``
+    one over the Hessian's entries, infinite where zero), its
     optimal tensions ``T`` and scaled bound multipliers ``z``; ``rows`` to ``x``: work
-    (:func:`_carve`). At most 30 arguments: CPython passes more as a tuple, which
-    numba's inliner refuses."""
+    (:func:`_carve`). One compiled function, called by the batch's loop and by the
+    one-pose kernel alike (inlined into both, it doubled their compile time at no
+    measured gain); at most 30 arguments, which CPython passes one by one."""
     n, m = A.shape
     linear = True
     for i in range(m):
-        linear = linear and q[i] == 0.0
-    s = pose_scaling(A, b, lb, ub, q, c, 0.0, UB_SHARE, ROW_FLOOR, rows)[0]
+        linear = linear and iq[i] == np.inf
+    # The reference tension depends on A, b and the bounds only (iq stands in for q,
+    # whose only use there is a scale this kernel does not read).
+    s = pose_scaling(A, b, lb, ub, iq, c, 0.0, UB_SHARE, ROW_FLOOR, rows)[0]
     bad, nfree = _active(T, z, lb, ub, s, free, bound)
-    cond = _reduced(A, rows, q, free, nfree, linear, Mf, Minv)
+    cond = _reduced(A, rows, iq, free, nfree, linear, Mf, Minv)
     status = _DEGENERATE if bad else _OK
     if not cond <= COND_MAX:
         status = _NON_UNIQUE if linear and nfree > n else _DEGENERATE
     else:
-        signs, moved = _kkt_point(A, b, rows, q, c, lb, T, s, free, nfree, bound, linear,
+        signs, moved = _kkt_point(A, b, rows, iq, c, lb, T, s, free, nfree, bound, linear,
                                   Minv, y, g, x)
         if signs:
             status = _DEGENERATE
@@ -452,12 +470,11 @@ def pose_jacobian(data: NDArray, anchors: NDArray, attachments: NDArray, com: ND
         if wrt == POSE:
             for k in range(n):
                 yu[k] = rows[k] * y[k]
-            pose_terms(int(data[0]), anchors, attachments, com, data[3], pose, T, yu, dAT,
-                        dAy, db)
-        _derivative(A, rows, q, free, nfree, linear, Minv, wrt, dAT, dAy, db, g, e, dy, x,
+            pose_terms(kind, anchors, attachments, com, weight, pose, T, yu, dAT, dAy, db)
+        _derivative(A, rows, iq, free, nfree, linear, Minv, wrt, dAT, dAy, db, g, e, dy, x,
                     Jp)
-    if (data.size | anchors.size | attachments.size | com.size | pose.size | A.size
-            | b.size | q.size | c.size | lb.size | ub.size | T.size | z.size | rows.size
+    if (anchors.size | attachments.size | com.size | pose.size | A.size
+            | b.size | iq.size | c.size | lb.size | ub.size | T.size | z.size | rows.size
             | free.size | bound.size | Mf.size | Minv.size | y.size | yu.size | dAT.size
             | dAy.size | db.size | g.size | e.size | dy.size | x.size | Jp.size) < 0:
         status = -1  # never: the arrays read after the branches
@@ -465,7 +482,7 @@ def pose_jacobian(data: NDArray, anchors: NDArray, attachments: NDArray, com: ND
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _derivative(A: NDArray, rows: NDArray, q: NDArray, free: NDArray, nfree: int,
+def _derivative(A: NDArray, rows: NDArray, iq: NDArray, free: NDArray, nfree: int,
                 linear: bool, Minv: NDArray, wrt: int, dAT: NDArray, dAy: NDArray,
                 db: NDArray, g: NDArray, e: NDArray, dy: NDArray, x: NDArray, Jp: NDArray
                 ) -> None:
@@ -479,11 +496,11 @@ def _derivative(A: NDArray, rows: NDArray, q: NDArray, free: NDArray, nfree: int
                 g[k] = -rows[k] if k == j else 0.0
         for i in range(m):
             e[i] = dAy[i, j] if wrt == POSE else 0.0  # r = dA' y
-        _reduced_solve(A, rows, q, free, nfree, linear, Minv, g, e, dy, x)
+        _reduced_solve(A, rows, iq, free, nfree, linear, Minv, g, e, dy, x)
         for i in range(m):
             Jp[i, j] = 0.0
         for a in range(nfree):
             Jp[free[a], j] = x[a]
-    if (A.size | rows.size | q.size | free.size | Minv.size | dAT.size | dAy.size | db.size
+    if (A.size | rows.size | iq.size | free.size | Minv.size | dAT.size | dAy.size | db.size
             | g.size | e.size | dy.size | x.size | Jp.size) < 0:
         Jp[0, 0] = np.nan  # never: the arrays read after the branches

@@ -366,10 +366,9 @@ def lane_jacobians(data: NDArray, views: tuple, poses: NDArray, wrenches: NDArra
     redo = 0
     for start in range(0, N, LANES):
         _load(S, poses, wrenches, T, z, y, solved, unique, start)
-        if wrt == 1:
-            _lane_step(S, anchors, offs, weight, lb, ub, q, inv_q, c, linear, numbers, True)
-        else:
-            _lane_step(S, anchors, offs, weight, lb, ub, q, inv_q, c, linear, numbers, False)
+        # One copy of the step (each copy costs its compile time): the choice of wrt
+        # is a branch the compiler may hoist out of the lanes' loop.
+        _lane_step(S, anchors, offs, weight, lb, ub, q, inv_q, c, linear, numbers, wrt == 1)
         for lane in range(fmin(LANES, N - start)):
             p = start + lane
             if S[at(F_CODE, lane)] != 0.0:

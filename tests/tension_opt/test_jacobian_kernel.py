@@ -214,6 +214,7 @@ def test_four_cable_lanes_are_the_pose_by_pose_loop(t_max, problem, wrt):
     vertices, interior optima, poses on both bounds and unsolved poses."""
     from tension_opt.distribution.compiled_sensitivity import _arrays
     from tension_opt.distribution.packing import pack_certified
+    from tension_opt.kernels.arrays import frozen
     from tension_opt.kernels.sensitivity import jacobian_poses
 
     robot = to.presets.algae_harvester(t_max=t_max)
@@ -222,7 +223,7 @@ def test_four_cable_lanes_are_the_pose_by_pose_loop(t_max, problem, wrt):
                              rng.uniform(-1.0, 4.0, 3000)])
     sol = to.distribute(robot, poses, problem, "closed_form")
     arrays = _arrays(sol, robot, poses, None, 4, 3, len(poses))
-    data = pack_certified(robot, sol.problem, 0.0)
+    data = frozen(pack_certified(robot, sol.problem, 0.0))  # the route's types: one signature
     out = [(np.empty((len(poses), 4, 3)), np.empty(len(poses), np.int8)) for _ in range(2)]
     for (J, codes), side in zip(out, (True, False), strict=True):
         jacobian_poses(data, *arrays, wrt, J, codes, side)
