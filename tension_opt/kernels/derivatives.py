@@ -118,12 +118,23 @@ def pose_terms(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
             m0 = (dr1 * u2 - dr2 * u1) + (r1 * du2 - r2 * du1)
             m1 = (dr2 * u0 - dr0 * u2) + (r2 * du0 - r0 * du2)
             m2 = (dr0 * u1 - dr1 * u0) + (r0 * du1 - r1 * du0)
-            total = 0.0
-            for k in range(n):
-                col = _kept(kind, k, du0, du1, du2, m0, m1, m2)
-                dAT[k, j] += col * T[i]
-                total += col * yu[k]
-            dAy[i, j] = total
+            if kind == 3:  # all six rows, written out (a tuple read at a loop index
+                Ti = T[i]  # is a store and a load per entry)
+                dAT[0, j] += du0 * Ti
+                dAT[1, j] += du1 * Ti
+                dAT[2, j] += du2 * Ti
+                dAT[3, j] += m0 * Ti
+                dAT[4, j] += m1 * Ti
+                dAT[5, j] += m2 * Ti
+                dAy[i, j] = (du0 * yu[0] + du1 * yu[1] + du2 * yu[2] + m0 * yu[3]
+                             + m1 * yu[4] + m2 * yu[5])
+            else:
+                total = 0.0
+                for k in range(n):
+                    col = _kept(kind, k, du0, du1, du2, m0, m1, m2)
+                    dAT[k, j] += col * T[i]
+                    total += col * yu[k]
+                dAy[i, j] = total
     for j in range(n):
         # d((R c) x f) = (omega x R c) x f with f = (0, 0, -weight); b takes it negated.
         w0, w1, w2 = _step(kind, j, pose, a, b)[3:]
