@@ -8,8 +8,8 @@ on the call alone (never on what numba happens to have cached), where:
   :data:`~tension_opt.distribution.entry.CHUNK_SIZE` poses, solved in chunks), and the
   call gives the ``robot`` and ``poses`` it needs anyway;
 - the robot is of a kind the compiled geometry knows (no guide pulleys), the problem is
-  one of the package's objectives without min-max term, smoothing or rate limit, and its
-  Hessian is zero (linear) or positive for every cable.
+  one of the package's objectives without min-max term, smoothing, rate limit or bounds
+  per pose, and its Hessian is zero (linear) or positive for every cable.
 
 The kernel gives the numpy path's Jacobians to rounding and its statuses (see the
 kernel's module for the one difference, the singularity test near its limit). Tasks of
@@ -44,7 +44,8 @@ def compiled_jacobian(solution: Any, wrt: str, robot: Any, poses: ArrayLike | No
     if (wrt not in ("wrench", "pose") or solution.form is not None
             or not isinstance(robot, CableRobot) or poses is None
             or solution.multipliers is None or solution.problem is None
-            or solution.problem.is_sequential or compiled_kind(robot) < 0):
+            or solution.problem.is_sequential or compiled_kind(robot) < 0
+            or _rows_per_pose(solution.problem)):
         return None
     data = pack_certified(robot, solution.problem, 0.0)
     m, n, N = robot.m, robot.dof, solution.N
@@ -93,7 +94,8 @@ class RealtimeJacobian:
         from tension_opt.kernels.closed_form import HEADER
 
         m = robot.m
-        if data is None or problem.is_sequential or data[7] != 0.0:
+        if (data is None or problem.is_sequential or data[7] != 0.0
+                or _rows_per_pose(problem)):
             return None
         if pack_certified(robot, problem, 0.0) is None:  # not one of the package's
             return None
@@ -116,6 +118,13 @@ class RealtimeJacobian:
         code = self.kernel(self.data, pose, T, local.work, self.offset, unique,
                            1 if wrt == "pose" else 0, J, floats, free)
         return J, code
+
+
+def _rows_per_pose(problem: Any) -> bool:
+    """Whether the problem has bounds or a reference per pose (the packed problem holds
+    one row for every pose)."""
+    return any(np.ndim(getattr(problem, name)) == 2 for name in ("t_min", "t_max",
+                                                                  "reference"))
 
 
 def _read_only(a: NDArray, dtype: Any) -> NDArray:

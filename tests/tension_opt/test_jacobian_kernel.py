@@ -99,6 +99,16 @@ def test_routes_the_compiled_path_only_where_it_applies():
     assert compiled_jacobian(chunked, "wrench", robot, poses[:3], None) is None  # poses
     whole = to.distribute(robot, poses, "min_sum", "closed_form")
     assert compiled_jacobian(whole, "wrench", robot, poses, None) is None  # a form kept
+    # Bounds per pose: the numpy path, the same answers as the whole batch's.
+    rows = to.TensionProblem("min_norm", t_max=np.linspace(8000.0, 15000.0, len(poses))[:, None]
+                             * np.ones(robot.m))
+    chunked = to.distribute(robot, poses, rows, "closed_form", chunk_size=16)
+    assert compiled_jacobian(chunked, "pose", robot, poses, None) is None
+    a = to.distribute(robot, poses, rows, "closed_form").jacobian("pose", robot=robot,
+                                                                   poses=poses)
+    b = chunked.jacobian("pose", robot=robot, poses=poses)
+    np.testing.assert_array_equal(a.status, b.status)
+    np.testing.assert_allclose(b.jacobian[a.ok], a.jacobian[a.ok], rtol=1e-9, atol=1e-9)
     # Poses other than those solved: the KKT point is not the solution (or its
     # multipliers change sign), never a finite number.
     moved = chunked.jacobian("wrench", robot=robot, poses=poses + 0.5)
