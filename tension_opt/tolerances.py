@@ -13,7 +13,8 @@ from tension_opt.checks import is_number
 from tension_opt.errors import InvalidInputError
 
 __all__ = ["ACCURACY_TARGETS", "DEFAULT_TARGET", "FEASIBILITY_TOL", "HIGH_TARGET", "RIDGE",
-           "ROW_FLOOR", "UB_SHARE", "accuracy_target"]
+           "ROW_FLOOR", "SENSITIVITY_ACTIVE_TOL", "SENSITIVITY_COND_MAX",
+           "SENSITIVITY_MULTIPLIER_TOL", "UB_SHARE", "accuracy_target"]
 
 #: Target of ``accuracy="default"`` on the three measures of the scaled problem.
 DEFAULT_TARGET = 1e-7
@@ -62,3 +63,11 @@ def accuracy_target(accuracy: object) -> float:
         f"accuracy must be one of {list(ACCURACY_TARGETS)} or a number between "
         f"{_TIGHTEST:g} and {_LOOSEST:g} (the target on primal residual, dual residual and "
         f"duality gap of the scaled problem), got {accuracy!r}")
+
+#: The Jacobians' active set (:mod:`tension_opt.distribution.sensitivity` and its
+#: compiled twins): distance (scaled: reference tensions) within which a point is on a
+#: bound or row, and size (scaled) beyond which a multiplier counts as nonzero.
+SENSITIVITY_ACTIVE_TOL = 1e-5
+SENSITIVITY_MULTIPLIER_TOL = 1e-5
+#: Largest 1-norm condition number of a KKT matrix the Jacobians take as nonsingular.
+SENSITIVITY_COND_MAX = 1e10

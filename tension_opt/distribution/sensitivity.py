@@ -62,6 +62,11 @@ from tension_opt.distribution.compiled_sensitivity import compiled_jacobian
 from tension_opt.errors import InvalidInputError
 from tension_opt.robot import CableRobot
 from tension_opt.robot.derivatives import cable_frames, column_derivatives, pose_derivatives
+from tension_opt.tolerances import (
+    SENSITIVITY_ACTIVE_TOL,
+    SENSITIVITY_COND_MAX,
+    SENSITIVITY_MULTIPLIER_TOL,
+)
 
 if TYPE_CHECKING:
     from tension_opt.problem.form import StandardForm
@@ -87,11 +92,11 @@ WRT = ("wrench", "pose", "t_min", "t_max", "drawing_points", "attachment_points"
 SENSITIVITY_STATUSES = ("ok", "non_unique", "degenerate", "not_optimal")
 _OK, _NON_UNIQUE, _DEGENERATE, _NOT_OPTIMAL = range(4)
 #: Distance (scaled: reference tensions) within which a point is on a bound or row.
-ACTIVE_TOL = 1e-5
+ACTIVE_TOL = SENSITIVITY_ACTIVE_TOL
 #: Size (scaled) beyond which a multiplier counts as nonzero.
-MULTIPLIER_TOL = 1e-5
+MULTIPLIER_TOL = SENSITIVITY_MULTIPLIER_TOL
 #: Largest 1-norm condition number of a KKT matrix taken as nonsingular.
-COND_MAX = 1e10
+COND_MAX = SENSITIVITY_COND_MAX
 #: Poses per chunk of KKT systems (bounds the memory of large batches).
 CHUNK = 16384
 NEEDS_ROBOT = ("pose", "drawing_points", "attachment_points")

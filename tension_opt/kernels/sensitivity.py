@@ -27,7 +27,9 @@ linear case up to the identity blocks, the square of ``Ar_F``'s for the quadrati
 one), so the two can differ only on poses within a few orders of the limit.
 
 The derivative of the columns and of the required wrench by the pose is
-:func:`tension_opt.kernels.derivatives.pose_terms`.
+:func:`tension_opt.kernels.derivatives.pose_terms`. A point robot on four cables runs
+its common poses side by side (:mod:`tension_opt.kernels.sensitivity_lanes`), and
+:func:`jacobian_one` differentiates the pose the real-time kernel just solved.
 """
 
 from __future__ import annotations
@@ -44,7 +46,13 @@ from tension_opt.kernels.distributor import matrix_at, vector_at
 from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
 from tension_opt.kernels.scaling import pose_scaling
 from tension_opt.kernels.sensitivity_lanes import REDO, lane_jacobians
-from tension_opt.tolerances import ROW_FLOOR, UB_SHARE
+from tension_opt.tolerances import (
+    ROW_FLOOR,
+    SENSITIVITY_ACTIVE_TOL,
+    SENSITIVITY_COND_MAX,
+    SENSITIVITY_MULTIPLIER_TOL,
+    UB_SHARE,
+)
 
 __all__ = ["ACTIVE_TOL", "COND_MAX", "MULTIPLIER_TOL", "NON_UNIQUE", "POSE", "WRENCH",
            "jacobian_one", "jacobian_poses", "pose_jacobian", "work_floats"]
@@ -55,9 +63,9 @@ WRENCH, POSE = 0, 1
 _OK, _NON_UNIQUE, _DEGENERATE, _NOT_OPTIMAL = 0, 1, 2, 3
 NON_UNIQUE = _NON_UNIQUE
 #: The reference's tolerances (:mod:`tension_opt.distribution.sensitivity`).
-ACTIVE_TOL = 1e-5
-MULTIPLIER_TOL = 1e-5
-COND_MAX = 1e10
+ACTIVE_TOL = SENSITIVITY_ACTIVE_TOL
+MULTIPLIER_TOL = SENSITIVITY_MULTIPLIER_TOL
+COND_MAX = SENSITIVITY_COND_MAX
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -33,11 +33,12 @@ from numba import njit
 from numpy.typing import NDArray
 
 from tension_opt.kernels.certified_lane_steps import LANES, REDO, at, fmax, fmin
+from tension_opt.tolerances import SENSITIVITY_ACTIVE_TOL, SENSITIVITY_MULTIPLIER_TOL
 
 __all__ = ["LANES", "REDO", "lane_jacobians"]
 
 #: The pose-by-pose kernel's tolerances (:mod:`tension_opt.kernels.sensitivity`).
-_ACTIVE_TOL, _MULTIPLIER_TOL = 1e-5, 1e-5
+_ACTIVE_TOL, _MULTIPLIER_TOL = SENSITIVITY_ACTIVE_TOL, SENSITIVITY_MULTIPLIER_TOL
 #: Lanes whose reduced matrix is worse conditioned than this go pose by pose, where the
 #: reference's limit (1e10) is judged exactly.
 _COND_LANES = 1e8
