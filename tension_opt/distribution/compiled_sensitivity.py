@@ -43,19 +43,12 @@ def compiled_jacobian(solution: Any, wrt: str, robot: Any, poses: ArrayLike | No
 
     if (wrt not in ("wrench", "pose") or solution.form is not None
             or not isinstance(robot, CableRobot) or poses is None
-            or solution.multipliers is None or solution.problem is None
-            or solution.problem.is_sequential or compiled_kind(robot) < 0
-            or _rows_per_pose(solution.problem)):
+            or solution.multipliers is None or compiled_kind(robot) < 0):
         return None
-    data = pack_certified(robot, solution.problem, 0.0)
+    data = _covered(robot, solution.problem)
+    if data is None:
+        return None
     m, n, N = robot.m, robot.dof, solution.N
-    if data is None or data[7] != 0.0:  # another objective, or a min-max term
-        return None
-    from tension_opt.kernels.closed_form import HEADER
-
-    q = data[HEADER + 6 * m:HEADER + 7 * m]  # the form's Hessian diagonal
-    if not ((q == 0.0).all() or (q > 0.0).all()):
-        return None
     arrays = _arrays(solution, robot, poses, wrench, m, n, N)
     if arrays is None:
         return None
@@ -91,18 +84,9 @@ class RealtimeJacobian:
            work_size: int) -> RealtimeJacobian | None:
         """The route for a distributor of ``robot`` and ``problem`` whose packed problem
         is ``data`` (None: the distributor has no compiled closed form), or None."""
-        from tension_opt.kernels.closed_form import HEADER
-
-        m = robot.m
-        if (data is None or problem.is_sequential or data[7] != 0.0
-                or _rows_per_pose(problem)):
+        if data is None or _covered(robot, problem) is None:
             return None
-        if pack_certified(robot, problem, 0.0) is None:  # not one of the package's
-            return None
-        q = data[HEADER + 6 * m:HEADER + 7 * m]
-        if not ((q == 0.0).all() or (q > 0.0).all()):
-            return None
-        return cls(data, m, robot.dof, work_size)
+        return cls(data, robot.m, robot.dof, work_size)
 
     def __call__(self, pose: NDArray, T: NDArray, local: Any, unique: bool,
                  wrt: str) -> tuple[NDArray, int]:
@@ -120,11 +104,20 @@ class RealtimeJacobian:
         return J, code
 
 
-def _rows_per_pose(problem: Any) -> bool:
-    """Whether the problem has bounds or a reference per pose (the packed problem holds
-    one row for every pose)."""
-    return any(np.ndim(getattr(problem, name)) == 2 for name in ("t_min", "t_max",
-                                                                  "reference"))
+def _covered(robot: CableRobot, problem: Any) -> NDArray | None:
+    """:func:`pack_certified` of ``robot`` and ``problem`` where the compiled Jacobians
+    cover the problem (the module docstring's conditions on it), else None."""
+    from tension_opt.kernels.closed_form import HEADER
+
+    # Bounds or a reference per pose: the packed problem holds one row for every pose.
+    if problem is None or problem.is_sequential or any(
+            np.ndim(getattr(problem, name)) == 2 for name in ("t_min", "t_max", "reference")):
+        return None
+    data = pack_certified(robot, problem, 0.0)
+    if data is None or data[7] != 0.0:  # another objective, or a min-max term
+        return None
+    q = data[HEADER + 6 * robot.m:HEADER + 7 * robot.m]  # the form's Hessian diagonal
+    return data if (q == 0.0).all() or (q > 0.0).all() else None
 
 
 def _read_only(a: NDArray, dtype: Any) -> NDArray:

@@ -69,16 +69,26 @@ COND_MAX = SENSITIVITY_COND_MAX
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _invert(M: NDArray, Minv: NDArray, r: int) -> float:
-    """``Minv = M^-1`` for the leading (r, r) block, by Gauss-Jordan elimination with
-    partial pivoting (``M`` overwritten); returns the 1-norm condition number (inf for a
-    singular or non-finite matrix)."""
+def _norm1(M: NDArray, r: int) -> float:
+    """1-norm (largest column sum of magnitudes) of the leading (r, r) block; inf where
+    an entry is NaN."""
     norm = 0.0
     for j in range(r):
         total = 0.0
         for i in range(r):
             total += abs(M[i, j])
         norm = max(norm, total) if total == total else np.inf
+    if M.size < 0:  # never: M read after the branches
+        norm = np.nan
+    return norm
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _invert(M: NDArray, Minv: NDArray, r: int) -> float:
+    """``Minv = M^-1`` for the leading (r, r) block, by Gauss-Jordan elimination with
+    partial pivoting (``M`` overwritten); returns the 1-norm condition number (inf for a
+    singular or non-finite matrix)."""
+    norm = _norm1(M, r)
     for i in range(r):
         for j in range(r):
             Minv[i, j] = 1.0 if i == j else 0.0
@@ -107,13 +117,7 @@ def _invert(M: NDArray, Minv: NDArray, r: int) -> float:
                 for j in range(r):
                     M[row, j] -= f * M[col, j]
                     Minv[row, j] -= f * Minv[col, j]
-    inorm = 0.0
-    for j in range(r):
-        total = 0.0
-        for i in range(r):
-            total += abs(Minv[i, j])
-        inorm = max(inorm, total) if total == total else np.inf
-    cond = norm * inorm if ok else np.inf
+    cond = norm * _norm1(Minv, r) if ok else np.inf
     if (M.size | Minv.size) < 0:  # never: the arrays read after the branches
         cond = np.nan
     return cond
