@@ -571,7 +571,7 @@ class CoupledIK:
             iterations=np.array([its], dtype=np.int64),
             catenary_iterations=cab[None, :, 4].astype(np.int64),
             status=np.array([_STATUS[code]], dtype=STATUS_DTYPE), model="coupled",
-            solve_time=0.0)
+            solve_time=0.0, problem=self.problem)
 
     def _reference(self, p: NDArray, wrench: ArrayLike | None) -> InverseKinematicsResult:
         """The numpy function (which holds its status to the same certificate,

@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tension_opt import CableRobot
+from tension_opt import CableRobot, TensionProblem
 from tension_opt.robot.derivatives import pose_derivatives, vector_derivatives
 
 from .elastic import axial_compliance, evaluate, length_derivative
@@ -124,8 +124,9 @@ def coupled_jacobian(robot: CableRobot, poses: ArrayLike, wrt: str,
     wrench : array_like, optional
         The external wrench (N, N m), as in :func:`catenary.inverse_kinematics`.
     result : InverseKinematicsResult, optional
-        The coupled solution of these poses with ``objective="min_sum"``, if at hand;
-        else it is solved here (``**options`` go to :func:`catenary.inverse_kinematics`).
+        The coupled solution of these poses with the minimum-sum objective (equal
+        weights; the bounds are its problem's), if at hand; else it is solved here
+        (``**options`` go to :func:`catenary.inverse_kinematics`).
 
     Returns
     -------
@@ -135,7 +136,8 @@ def coupled_jacobian(robot: CableRobot, poses: ArrayLike, wrt: str,
     ------
     InvalidCableError
         For an unknown ``wrt``, weightless cables, a robot with pulleys, or a result of
-        another model.
+        another model, of another objective (or unequal weights), or of an unknown
+        problem.
     """
     return coupled_jacobians(robot, poses, (wrt,), wrench, result=result, **options)[wrt]
 
@@ -157,6 +159,7 @@ def coupled_jacobians(robot: CableRobot, poses: ArrayLike, wrts: Sequence[str],
         result = inverse_kinematics(robot, p, "coupled", "min_sum", wrench=wrench, **options)
     if result.model != "coupled" or result.lengths.shape[0] != len(p):
         raise InvalidCableError("result must be the coupled model's solution of these poses")
+    lb, ub = _min_sum_bounds(robot, result.problem, len(p))
     N, m = result.lengths.shape
     n = robot.dof
     sizes = {wrt: {"pose": n, "wrench": n, "drawing_points": 3 * m,
@@ -166,7 +169,7 @@ def coupled_jacobians(robot: CableRobot, poses: ArrayLike, wrts: Sequence[str],
     ok_rows = np.flatnonzero(status == "ok")
     # In chunks: a pose's KKT matrix is (6m + n)^2 numbers (23 kB for 8 cables).
     for rows in np.array_split(ok_rows, -(-len(ok_rows) // CHUNK)) if len(ok_rows) else []:
-        kkt = _Kkt(robot, p[rows], result, rows, w, EA)
+        kkt = _Kkt(robot, p[rows], result, rows, w, EA, (lb[rows], ub[rows]))
         status[rows[kkt.code == 1]] = "not_optimal"
         status[rows[kkt.code == 2]] = "degenerate"
         good = kkt.code == 0
@@ -195,6 +198,29 @@ def coupled_jacobians(robot: CableRobot, poses: ArrayLike, wrts: Sequence[str],
     return done
 
 
+def _min_sum_bounds(robot: CableRobot, problem: TensionProblem | None, N: int
+                    ) -> tuple[FloatArray, FloatArray]:
+    """The tension bounds (N, m) of a minimum-sum ``problem`` with equal weights: the
+    only one whose KKT system :class:`_Kkt` writes; else the package's error."""
+    if problem is None:
+        raise InvalidCableError(
+            "result's tension problem is unknown: pass a result of "
+            "catenary.inverse_kinematics(..., model='coupled', objective='min_sum') or of "
+            "CoupledIK, or leave result out")
+    objective = problem.objective
+    name = objective if isinstance(objective, str) else objective.name
+    if name != "min_sum":
+        raise InvalidCableError(
+            f"result answers the {name!r} objective; the coupled Jacobians differentiate the "
+            "minimum-sum solution: solve with objective='min_sum', or leave result out")
+    weights = problem.cable_weights(robot.m)
+    if not np.allclose(weights, weights[0], rtol=1e-14, atol=0.0):
+        raise InvalidCableError(
+            "result answers a weighted minimum sum; the coupled Jacobians differentiate the "
+            "unweighted one: solve without weights, or leave result out")
+    return problem.bounds(robot, N)
+
+
 def _first(H: FloatArray, V_B: FloatArray, L0: FloatArray, w: float, c: float
            ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Gradients by ``(H, V_B, L0)`` (..., 3) of each cable's spans ``x``, ``z`` and its
@@ -217,8 +243,10 @@ class _Kkt:
     1 not stationary, 2 degenerate."""
 
     def __init__(self, robot: CableRobot, poses: FloatArray, result: InverseKinematicsResult,
-                 rows: NDArray[np.intp], w: float, EA: float) -> None:
+                 rows: NDArray[np.intp], w: float, EA: float,
+                 bounds: tuple[FloatArray, FloatArray]) -> None:
         self.robot, self.poses, self.w, self.EA = robot, poses, w, EA
+        self.lb, self.ub = bounds
         self.c = float(axial_compliance(np.asarray(EA, dtype=float)))
         k, m = len(rows), robot.m
         self.rows_w = list(robot.wrench_rows)
@@ -271,14 +299,12 @@ class _Kkt:
                 ) -> tuple[NDArray[np.int8], FloatArray]:
         """Per cable, -1 on ``t_min``, +1 on ``t_max``, 0 on neither, and the gradient
         (k, m, 3) of the extreme tension that is on it."""
-        robot, m = self.robot, self.m
         H, V_B = self.H, self.V_B
         T_A, T_B = np.hypot(H, V_A), np.hypot(H, V_B)
         dip = (V_A < 0) & (V_B > 0)
         low = np.where(dip, H, np.minimum(T_A, T_B))
         high = np.maximum(T_A, T_B)
-        t_min = np.broadcast_to(np.asarray(robot.t_min, dtype=float), (m,))
-        t_max = np.broadcast_to(np.asarray(robot.t_max, dtype=float), (m,))
+        t_min, t_max = self.lb, self.ub
         on_min = np.abs(low - t_min) <= BOUND_TOL * np.maximum(t_min, 1.0)
         on_max = np.isfinite(t_max) & (np.abs(high - t_max) <= BOUND_TOL * t_max) & ~on_min
         kind = np.where(on_min, -1, np.where(on_max, 1, 0)).astype(np.int8)

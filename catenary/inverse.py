@@ -125,6 +125,9 @@ class InverseKinematicsResult:
         ``"thesis"`` or ``"coupled"``.
     solve_time : float
         Wall-clock time of the whole call (s).
+    problem : TensionProblem or None
+        The tension problem the tensions answer (objective, weights, bounds), or None
+        where it is not known.
     """
 
     lengths: FloatArray
@@ -139,6 +142,7 @@ class InverseKinematicsResult:
     status: NDArray[np.str_]
     model: str
     solve_time: float
+    problem: TensionProblem | None = None
 
     @property
     def sag(self) -> FloatArray:
@@ -291,7 +295,8 @@ def _batch(robot: CableRobot, poses: ArrayLike, model: str, objective: Any,
     else:
         solution = _thesis(planes, straight.tensions, straight.status, w, EA,
                            settings["compiled"])
-    result = _result(robot, p, wrench, planes, solution, model, time.perf_counter() - start)
+    result = _result(robot, p, wrench, planes, solution, model, time.perf_counter() - start,
+                     as_problem(objective))
     if model == "coupled":
         _certify(result, robot, p, objective, wrench, w)
     return result
@@ -357,7 +362,7 @@ def _over_pulleys(robot: CableRobot, p: FloatArray, model: str, straight: Tensio
                 Status.NOT_CONVERGED)
         sag = frames.sag(h, wrap, np.zeros(wrap.shape, np.int64), settled)
     result = _result(robot, p, wrench, sag.planes, solution, model,
-                     time.perf_counter() - start)
+                     time.perf_counter() - start, as_problem(objective))
     if model == "coupled":
         _certify(result, robot, p, objective, wrench, w)
     return replace(result, lengths=result.lengths + sag.arcs(result.tensions, EA),
@@ -550,12 +555,13 @@ def thesis_result(solver: CompiledThesis | None, pose: ArrayLike, wrench: ArrayL
         platform_forces=forces, equilibrium_residual=np.array([residual]),
         iterations=_NO_ITERATIONS.copy(), catenary_iterations=out[5].astype(np.int64),
         status=_ONE_CONVERGED.copy(), model="thesis",
-        solve_time=time.perf_counter() - start)
+        solve_time=time.perf_counter() - start, problem=solver.distributor.problem)
 
 
 def _result(robot: CableRobot, poses: FloatArray, wrench: ArrayLike | None,
             planes: CablePlanes, solution: CatenarySolution, model: str,
-            solve_time: float) -> InverseKinematicsResult:
+            solve_time: float, problem: TensionProblem | None = None
+            ) -> InverseKinematicsResult:
     """The result of a solution: NaN catenaries where it failed, forces, residuals."""
     failed = ~np.isin(solution.status, (Status.CONVERGED, Status.MAX_ITER))[:, None]
     H, V_A, V_B, L0 = (np.where(failed, np.nan, a)
@@ -576,4 +582,5 @@ def _result(robot: CableRobot, poses: FloatArray, wrench: ArrayLike | None,
         status=solution.status,
         model=model,
         solve_time=solve_time,
+        problem=problem,
     )

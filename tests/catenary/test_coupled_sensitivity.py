@@ -4,6 +4,8 @@ a turning 6-DOF platform (CoGiRo), by the pose, the wrench, the cable's weight a
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -146,3 +148,46 @@ def test_chunks_give_the_same_answer(monkeypatch: pytest.MonkeyPatch) -> None:
     parts = coupled_jacobian(robot, STUDY_POSES, "pose", result=got)
     np.testing.assert_array_equal(parts.status, whole.status)
     np.testing.assert_allclose(parts.tensions, whole.tensions, rtol=1e-12)
+
+
+def test_a_result_of_another_problem_is_refused() -> None:
+    """A min-norm or weighted result differentiated as a minimum sum gave finite wrong
+    numbers labelled ok; the result now carries its problem and is refused."""
+    robot = to.presets.algae_harvester()
+    norm = catenary.inverse_kinematics(robot, STUDY_POSES, "coupled", "min_norm", tol=1e-13)
+    assert norm.success.all()
+    with pytest.raises(InvalidCableError, match="'min_norm' objective"):
+        coupled_jacobian(robot, STUDY_POSES, "pose", result=norm)
+    weighted = to.TensionProblem("min_sum", weights=[1.0, 2.0, 1.0, 1.0])
+    with pytest.raises(InvalidCableError, match="weighted"):
+        coupled_jacobian(robot, STUDY_POSES, "pose", result=catenary.inverse_kinematics(
+            robot, STUDY_POSES, "coupled", weighted, tol=1e-13))
+    unknown = dataclasses.replace(solve(robot, STUDY_POSES), problem=None)
+    with pytest.raises(InvalidCableError, match="unknown"):
+        coupled_jacobian(robot, STUDY_POSES, "pose", result=unknown)
+    equal = to.TensionProblem("min_sum", weights=[3.0] * 4)  # the same minimiser
+    same = catenary.inverse_kinematics(robot, STUDY_POSES, "coupled", equal, tol=1e-13)
+    np.testing.assert_allclose(
+        coupled_jacobian(robot, STUDY_POSES, "pose", result=same).tensions,
+        coupled_jacobian(robot, STUDY_POSES, "pose", result=solve(robot, STUDY_POSES)).tensions,
+        rtol=1e-6, atol=1e-6)
+
+
+def test_the_problems_own_bounds() -> None:
+    """A problem's t_max (not the robot's) decides which cables are on a bound: the
+    Jacobian matches central differences of the solve with that problem."""
+    robot = to.presets.algae_harvester()
+    problem = to.TensionProblem("min_sum", t_max=15000.0)
+    poses = STUDY_POSES[:3]
+    got = catenary.inverse_kinematics(robot, poses, "coupled", problem, tol=1e-13)
+    assert (np.abs(got.tensions - 15000.0) < 1e-6).any()
+    J = coupled_jacobian(robot, poses, "pose", result=got)
+    assert J.ok.all(), J.status
+    step = 1e-4
+    for j in range(3):
+        e = np.zeros(3)
+        e[j] = step
+        plus, minus = (catenary.inverse_kinematics(robot, poses + s * e, "coupled", problem,
+                                                   tol=1e-13) for s in (1, -1))
+        assert_matches([J.tensions[..., j], J.tensions_platform[..., j], J.lengths[..., j]],
+                       plus, minus, step, 1e-6)
