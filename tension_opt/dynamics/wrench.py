@@ -106,15 +106,18 @@ def _newton_euler(robot: CableRobot, p: NDArray, v: NDArray) -> tuple[NDArray, N
     """:func:`inertia_terms` of validated poses and velocities (N, n)."""
     pattern, m = robot.pattern, robot.mass
     St, Sr = pattern.step_maps()  # (3, n): velocity coordinates -> (linear, angular)
+    rows = list(pattern.wrench_rows)
+    if not Sr.any() and max(rows) < 3:  # a point mass that cannot turn: m a, no bias
+        mass = np.broadcast_to(m * St[rows], (len(p), len(rows), St.shape[1])).copy()
+        return mass, np.zeros((len(p), len(rows)))
     _, R = pattern.frames(p)
     r = np.einsum("nij,j->ni", R, robot.com)
-    I_w = np.einsum("nij,jk,nlk->nil", R, np.asarray(robot.inertia), R)
+    I_w = (R @ np.asarray(robot.inertia)) @ np.swapaxes(R, 1, 2)  # einsum: twice the time
     rx = np.zeros((len(p), 3, 3))
     rx[:, 0, 1], rx[:, 0, 2], rx[:, 1, 2] = -r[:, 2], r[:, 1], -r[:, 0]
     rx -= np.swapaxes(rx, 1, 2)
     force = m * St[None] - m * rx @ Sr  # (N, 3, n): f of a unit acceleration
     moment = I_w @ Sr + rx @ force
-    rows = list(pattern.wrench_rows)
     mass = np.concatenate([force, moment], axis=1)[:, rows, :]
     omega = v @ Sr.T
     f_bias = m * cross(omega, cross(omega, r))
