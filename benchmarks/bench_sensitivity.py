@@ -31,7 +31,7 @@ def main(N: int = 100_000) -> None:
                 t0 = time.perf_counter()
                 sol = to.distribute(robot, poses, objective, "closed_form")
                 solve = time.perf_counter() - t0
-            for wrt in ("wrench", "pose"):
+            for wrt in ("wrench", "pose", "t_min", "t_max"):
                 for _ in range(2):  # the second: no compiling or loading of kernels
                     t0 = time.perf_counter()
                     sol.jacobian(wrt, robot=robot, poses=poses)
@@ -68,7 +68,7 @@ def realtime(calls: int = 2000) -> None:
         pose = np.ascontiguousarray(random_feasible_poses(robot, 1, seed=4)[0])
         for objective in ("min_sum", "min_norm"):
             solver = to.Distributor(robot, objective)
-            for wrt in ("wrench", "pose"):
+            for wrt in ("wrench", "pose", "t_max"):
                 solver.with_jacobian(pose, wrt)
                 alone, both = [], []
                 for _ in range(calls):

@@ -3,7 +3,7 @@
 :func:`tension_opt.distribution.sensitivity.tension_jacobian` takes this route, by a rule
 on the call alone (never on what numba happens to have cached), where:
 
-- ``wrt`` is ``"wrench"`` or ``"pose"``;
+- ``wrt`` is ``"wrench"``, ``"pose"``, ``"t_min"`` or ``"t_max"``;
 - the solution keeps no form (a batch of more than
   :data:`~tension_opt.distribution.entry.CHUNK_SIZE` poses, solved in chunks), and the
   call gives the ``robot`` and ``poses`` it needs anyway;
@@ -26,22 +26,25 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.distribution.packing import pack_certified
+from tension_opt.problem.objectives import Centered
 from tension_opt.robot import CableRobot
 
 __all__ = ["TASK", "RealtimeJacobian", "compiled_jacobian", "warm_kernel"]
 
 #: Poses per kernel call of a large batch (the threads' unit of work).
 TASK = 32768
+#: The kernel's code of each ``wrt`` it covers (:mod:`tension_opt.kernels.sensitivity`).
+_CODES = {"wrench": 0, "pose": 1, "t_min": 2, "t_max": 3}
 
 
 def compiled_jacobian(solution: Any, wrt: str, robot: Any, poses: ArrayLike | None,
                       wrench: ArrayLike | None) -> tuple[NDArray, NDArray] | None:
-    """``(jacobian (N, m, n), status codes (N,) of int8)`` of ``solution`` by the compiled
-    kernel, or None where the call does not take this route (see the module docstring;
-    the numpy path then answers, or raises its error for bad input)."""
+    """``(jacobian (N, m, n) or (N, m, m), status codes (N,) of int8)`` of ``solution``
+    by the compiled kernel, or None where the call does not take this route (see the
+    module docstring; the numpy path then answers, or raises its error for bad input)."""
     from tension_opt.kernels.geometry import compiled_kind
 
-    if (wrt not in ("wrench", "pose") or solution.form is not None
+    if (wrt not in _CODES or solution.form is not None
             or not isinstance(robot, CableRobot) or poses is None
             or solution.multipliers is None or compiled_kind(robot) < 0):
         return None
@@ -52,7 +55,10 @@ def compiled_jacobian(solution: Any, wrt: str, robot: Any, poses: ArrayLike | No
     arrays = _arrays(solution, robot, poses, wrench, m, n, N)
     if arrays is None:
         return None
-    return _run(data, arrays, 0 if wrt == "wrench" else 1, m, n, N)
+    code = _CODES[wrt]
+    if wrt.startswith("t_") and type(solution.problem.objective) is Centered:
+        code += 4  # MOVES_TARGET: the centred cost follows the bounds
+    return _run(data, arrays, code, m, n, N)
 
 
 class RealtimeJacobian:
@@ -63,7 +69,8 @@ class RealtimeJacobian:
     objectives without min-max term, smoothing or rate limit, a Hessian zero or positive
     for every cable."""
 
-    def __init__(self, data: NDArray, m: int, n: int, work_size: int) -> None:
+    def __init__(self, data: NDArray, m: int, n: int, work_size: int,
+                 moves_target: bool = False) -> None:
         from tension_opt.kernels.distributor import multipliers_offset
         from tension_opt.kernels.first_use import announce
         from tension_opt.kernels.launch import entry_point
@@ -71,6 +78,7 @@ class RealtimeJacobian:
 
         announce("Jacobians", jacobian_one)
         self.data, self.m, self.n = data, m, n
+        self.moves_target = 4 if moves_target else 0  # the kernel's MOVES_TARGET
         self.offset = multipliers_offset(m, n)
         self.floats, self.shape = int(work_floats(m, n)), (m, n)
         # The machine code for exactly the types the distributor passes (its own data,
@@ -86,11 +94,12 @@ class RealtimeJacobian:
         is ``data`` (None: the distributor has no compiled closed form), or None."""
         if data is None or _covered(robot, problem) is None:
             return None
-        return cls(data, robot.m, robot.dof, work_size)
+        return cls(data, robot.m, robot.dof, work_size, type(problem.objective) is Centered)
 
     def __call__(self, pose: NDArray, T: NDArray, local: Any, unique: bool,
                  wrt: str) -> tuple[NDArray, int]:
-        """``(J (m, n), status code)`` of the pose just solved (contiguous float vectors
+        """``(J (m, n), or (m, m) by a bound, status code)`` of the pose just solved
+        (contiguous float vectors
         ``pose`` and ``T``; ``local``: the distributor's thread-local state, whose
         ``work`` the real-time kernel wrote and which keeps this thread's buffers)."""
         try:
@@ -98,9 +107,10 @@ class RealtimeJacobian:
         except AttributeError:  # this thread's first call
             floats, free = np.empty(self.floats), np.empty(self.m, dtype=np.int64)
             local.jacobian_work = floats, free
-        J = np.empty(self.shape)
+        what = _CODES[wrt]
+        J = np.empty(self.shape if what <= 1 else (self.m, self.m))
         code = self.kernel(self.data, pose, T, local.work, self.offset, unique,
-                           1 if wrt == "pose" else 0, J, floats, free)
+                           what if what <= 1 else what + self.moves_target, J, floats, free)
         return J, code
 
 
@@ -160,7 +170,7 @@ def _run(data: NDArray, arrays: tuple[NDArray, ...], wrt: int, m: int, n: int, N
     announce("Jacobian", jacobian_poses)
     data = _read_only(data, float)
     p, w, T, z, y, solved, unique = arrays
-    J = np.empty((N, m, n))
+    J = np.empty((N, m, n if wrt & 3 <= 1 else m))
     codes = np.empty(N, dtype=np.int8)
 
     def task(k: int) -> None:

@@ -231,11 +231,12 @@ class Distributor:
                       wrench: ArrayLike | None = None,
                       previous: ArrayLike | None = None) -> RealtimeResult:
         """One pose (n,) solved as a call solves it, with the Jacobian of its optimal
-        tensions by ``wrt`` (``"wrench"`` or ``"pose"``) in the result's ``jacobian``
-        (m, n) and ``jacobian_status``: the compiled kernel's where the pose went
-        through the compiled closed form (the package's objectives without min-max term,
-        smoothing or rate limit), else :meth:`TensionSolution.jacobian
-        <tension_opt.TensionSolution.jacobian>` of the same pose (the same statuses).
+        tensions by ``wrt`` (``"wrench"``, ``"pose"``, ``"t_min"`` or ``"t_max"``) in the
+        result's ``jacobian`` ((m, n); (m, m) by the bounds) and ``jacobian_status``:
+        the compiled kernel's where the pose went through the compiled closed form (the
+        package's objectives without min-max term, smoothing or rate limit), else
+        :meth:`TensionSolution.jacobian <tension_opt.TensionSolution.jacobian>` of the
+        same pose (the same statuses).
 
         Raises
         ------
@@ -243,10 +244,10 @@ class Distributor:
             For another ``wrt`` or a batch of poses (use :func:`tension_opt.distribute`
             and ``solution.jacobian``), or bad input as a call raises it.
         """
-        if wrt != "pose" and wrt != "wrench":
-            raise InvalidInputError(f"wrt must be 'wrench' or 'pose', got {wrt!r}: for "
-                                    "another, solve with tension_opt.distribute and call "
-                                    "solution.jacobian")
+        if wrt not in ("pose", "wrench", "t_min", "t_max"):
+            raise InvalidInputError(f"wrt must be 'wrench', 'pose', 't_min' or 't_max', got "
+                                    f"{wrt!r}: for another, solve with "
+                                    "tension_opt.distribute and call solution.jacobian")
         route = self._jacobian_route
         if route is None:
             from tension_opt.distribution.compiled_sensitivity import RealtimeJacobian
@@ -267,7 +268,8 @@ class Distributor:
             prev = self._stream_start(previous)
             result = self(p, wrench, prev)
         if result.status is not Status.OPTIMAL:
-            J, status = np.full((self.robot.m, self.robot.dof), np.nan), "not_optimal"
+            columns = self.robot.dof if wrt in ("pose", "wrench") else self.robot.m
+            J, status = np.full((self.robot.m, columns), np.nan), "not_optimal"
         elif route and result.compiled:
             J, code = route(p, result.tensions, self._local, result.unique, wrt)
             status = SENSITIVITY_STATUSES[code]

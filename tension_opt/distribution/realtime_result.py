@@ -38,7 +38,7 @@ class RealtimeResult:
         The certificate, as :attr:`tension_opt.TensionSolution.primal_residual` ...
         (scaled measures; NaN where there is no solution): ``optimal`` only where all
         three are within the accuracy target.
-    jacobian : ndarray, shape (m, n), or None
+    jacobian : ndarray, shape (m, n) ((m, m) by a bound), or None
         From :meth:`Distributor.with_jacobian`: ``dT / d wrt`` (NaN where the status
         is not ``"ok"``); None from a plain call.
     jacobian_status : str or None

@@ -1,4 +1,5 @@
-"""Jacobians of optimal tensions by the wrench and by the pose, compiled, pose by pose.
+"""Jacobians of optimal tensions by the wrench, the pose and the tension bounds,
+compiled, pose by pose.
 
 The reference is :class:`tension_opt.distribution.sensitivity.KktSystem` on a problem
 without rows (no min-max term) whose objective is linear (every Hessian entry zero) or
@@ -12,8 +13,11 @@ over their norms, ``Q`` and ``c`` the form's Hessian diagonal and cost)::
                S = Ar_F Q_F^-1 Ar_F'
 
 with ``dbr = rows * (db - dA T)`` and ``r = dA_F' y`` (``dA``, ``db`` zero for the
-wrench, whose ``db`` is ``-e_j``). This is the full KKT matrix of the reference
-eliminated block by block, so the derivatives agree to rounding.
+wrench, whose ``db`` is ``-e_j``). A bound ``t_min_j`` or ``t_max_j`` moves cable ``j``
+by one where it is the active bound (``dbr = -rows * A_j``, ``r`` zero) and, for the
+centred objective (whose cost ``c_j = -q_j (t_min_j + t_max_j) / 2`` follows the
+bounds), a free cable ``j``'s cost by ``r_j = -q_j / 2``. This is the full KKT matrix
+of the reference eliminated block by block, so the derivatives agree to rounding.
 
 The per-pose statuses are the reference's: the active set from the certificate's
 multipliers and the distance to the bounds (:data:`ACTIVE_TOL`,
@@ -54,11 +58,15 @@ from tension_opt.tolerances import (
     UB_SHARE,
 )
 
-__all__ = ["ACTIVE_TOL", "COND_MAX", "MULTIPLIER_TOL", "NON_UNIQUE", "POSE", "WRENCH",
-           "jacobian_one", "jacobian_poses", "pose_jacobian", "work_floats"]
+__all__ = ["ACTIVE_TOL", "COND_MAX", "MOVES_TARGET", "MULTIPLIER_TOL", "NON_UNIQUE", "POSE",
+           "T_MAX", "T_MIN", "WRENCH", "jacobian_one", "jacobian_poses", "pose_jacobian",
+           "work_floats"]
 
-#: What a Jacobian is taken with respect to: the external wrench, the pose.
-WRENCH, POSE = 0, 1
+#: What a Jacobian is taken with respect to: the external wrench, the pose, the lower and
+#: the upper tension bounds (the low two bits of ``wrt``).
+WRENCH, POSE, T_MIN, T_MAX = 0, 1, 2, 3
+#: Added to ``T_MIN`` or ``T_MAX``: the bounds also move the objective's cost (centred).
+MOVES_TARGET = 4
 #: Statuses, in the order of :data:`tension_opt.distribution.sensitivity.SENSITIVITY_STATUSES`.
 _OK, _NON_UNIQUE, _DEGENERATE, _NOT_OPTIMAL = 0, 1, 2, 3
 NON_UNIQUE = _NON_UNIQUE
@@ -146,8 +154,9 @@ def jacobian_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray,
         Poses with a certified optimum (differentiated where its tensions and
         multipliers are finite); poses whose optimum is unique.
     wrt : int
-        :data:`WRENCH` or :data:`POSE`.
-    J : ndarray, shape (N, m, n)
+        :data:`WRENCH`, :data:`POSE`, :data:`T_MIN` or :data:`T_MAX` (plus
+        :data:`MOVES_TARGET` for the centred objective).
+    J : ndarray, shape (N, m, n), or (N, m, m) for the bounds
         Written: ``dT / d wrt`` (NaN where the status is not ``"ok"``).
     codes : ndarray of int8, shape (N,)
         Written: the statuses' codes.
@@ -160,7 +169,7 @@ def jacobian_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray,
     # Work arrays made once and handed to the loop (see tension_opt.kernels).
     floats, free = np.empty(work_floats(m, n)), np.empty(m, dtype=np.int64)
     work, views = _carve(floats.ctypes.data, m, n), _problem_at(data.ctypes.data, m)
-    if not (side_by_side and int(data[0]) == 0 and m == 4 and n == 3):
+    if not (side_by_side and int(data[0]) == 0 and m == 4 and n == 3 and wrt <= POSE):
         _loop(data, views, poses, wrenches, T, z, y, solved, unique, wrt, J, codes, free,
               work)
     else:  # a point robot on four cables: blocks of poses side by side, then the rest
@@ -196,7 +205,7 @@ def _problem_at(d: int, m: int) -> tuple[NDArray, ...]:
 @njit(cache=True)
 def work_floats(m: int, n: int) -> int:
     """Floats of work space of one pose's Jacobian (:func:`_carve`)."""
-    return 8 * n + 6 * m + 3 * n * m + 4 * n * n
+    return 8 * n + 6 * m + 2 * n * m + m * max(m, n) + 4 * n * n
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -205,10 +214,11 @@ def _carve(address: int, m: int, n: int) -> tuple[NDArray, ...]:
     owning nothing (no reference counts: see
     :func:`tension_opt.kernels.distributor.vector_at`; the caller keeps the buffer
     alive), in this order: ``pose, wrench, b, rows, y, yu, g, dy`` (n), ``bound, e, x,
-    Tp, zp, iq`` (m), ``A`` (n, m), ``dAy, Jp`` (m, n), ``Mf, Minv, dAT, db`` (n, n)."""
+    Tp, zp, iq`` (m), ``A`` (n, m), ``dAy`` (m, n), ``Jp`` (m, max(m, n)), ``Mf, Minv,
+    dAT, db`` (n, n)."""
     nm, nn, o = n * m, n * n, 8 * n
     p = o + 6 * m
-    q = p + 3 * nm
+    q = p + 2 * nm + m * max(m, n)
     a = address
     return (vector_at(a, 0, n), vector_at(a, n, n), vector_at(a, 2 * n, n),
             vector_at(a, 3 * n, n), vector_at(a, 4 * n, n), vector_at(a, 5 * n, n),
@@ -216,7 +226,7 @@ def _carve(address: int, m: int, n: int) -> tuple[NDArray, ...]:
             vector_at(a, o + m, m), vector_at(a, o + 2 * m, m), vector_at(a, o + 3 * m, m),
             vector_at(a, o + 4 * m, m), vector_at(a, o + 5 * m, m), matrix_at(a, p, n, m),
             matrix_at(a, p + nm, m, n),
-            matrix_at(a, p + 2 * nm, m, n), matrix_at(a, q, n, n),
+            matrix_at(a, p + 2 * nm, m, max(m, n)), matrix_at(a, q, n, n),
             matrix_at(a, q + nn, n, n), matrix_at(a, q + 2 * nn, n, n),
             matrix_at(a, q + 3 * nn, n, n))
 
@@ -403,7 +413,7 @@ def _loop(data: NDArray, views: tuple[NDArray, ...], poses: NDArray, wrenches: N
                 status = _NON_UNIQUE
         codes[p] = status
         for i in range(m):
-            for j in range(n):
+            for j in range(J.shape[2]):
                 J[p, i, j] = Jp[i, j] if status == _OK else np.nan
 
 
@@ -415,9 +425,9 @@ def jacobian_one(data: NDArray, pose: NDArray, T: NDArray, work: NDArray, offset
     leaves in its work array ``work``: the pose's form (``A, b, q, c, lb, ub`` at its
     start) and the bound multipliers at ``offset``
     (:func:`tension_opt.kernels.distributor.multipliers_offset`). ``T`` (m,): its
-    tensions; ``J`` (m, n) written; ``floats`` (:func:`work_floats`) and ``free`` (m,
-    int64): this thread's work. Returns the status code (:data:`NON_UNIQUE` where the
-    optimum is not ``unique``)."""
+    tensions; ``J`` (m, n), or (m, m) by a bound, written; ``floats``
+    (:func:`work_floats`) and ``free`` (m, int64): this thread's work. Returns the
+    status code (:data:`NON_UNIQUE` where the optimum is not ``unique``)."""
     m, n = int(data[1]), int(data[2])
     _, _, _, rows, y, yu, g, dy, bound, e, x, _, _, iq, _, dAy, _, Mf, Minv, dAT, db = _carve(
         floats.ctypes.data, m, n)
@@ -433,12 +443,12 @@ def jacobian_one(data: NDArray, pose: NDArray, T: NDArray, work: NDArray, offset
                            vector_at(pose.ctypes.data, 0, n), A, b, inverted(q, iq), c, lb, ub,
                            vector_at(T.ctypes.data, 0, m), vector_at(w, offset, m), wrt, rows,
                            free, bound, Mf, Minv, y, yu, dAT, dAy, db, g, e, dy, x,
-                           matrix_at(J.ctypes.data, 0, m, n))
+                           matrix_at(J.ctypes.data, 0, m, J.shape[1]))
     if not unique:
         status = _NON_UNIQUE
     if status != _OK:
         for i in range(m):
-            for j in range(n):
+            for j in range(J.shape[1]):
                 J[i, j] = np.nan
     if (data.size | work.size | floats.size | pose.size | T.size | J.size) < 0:
         status = -1  # never: the buffers read after their views' last use (they own nothing)
@@ -452,7 +462,8 @@ def pose_jacobian(kind: int, weight: float, anchors: NDArray, attachments: NDArr
                   free: NDArray, bound: NDArray, Mf: NDArray, Minv: NDArray, y: NDArray,
                   yu: NDArray, dAT: NDArray, dAy: NDArray, db: NDArray, g: NDArray,
                   e: NDArray, dy: NDArray, x: NDArray, Jp: NDArray) -> int:
-    """The Jacobian ``Jp`` (m, n) of one pose (written where the status is ``"ok"``) and
+    """The Jacobian ``Jp`` (m, n; (m, m) by a bound) of one pose (written where the
+    status is ``"ok"``) and
     its status code, from the robot's data, the pose's form (``A, b, c, lb, ub``, and ``iq``
     one over the Hessian's entries, infinite where zero), its
     optimal tensions ``T`` and scaled bound multipliers ``z``; ``rows`` to ``x``: work
@@ -484,7 +495,7 @@ def pose_jacobian(kind: int, weight: float, anchors: NDArray, attachments: NDArr
                 yu[k] = rows[k] * y[k]
             pose_terms(kind, anchors, attachments, com, weight, pose, T, yu, dAT, dAy, db)
         _derivative(A, rows, iq, free, nfree, linear, Minv, wrt, dAT, dAy, db, g, e, dy, x,
-                    Jp)
+                    Jp, lb, bound)
     if (anchors.size | attachments.size | com.size | pose.size | A.size
             | b.size | iq.size | c.size | lb.size | ub.size | T.size | z.size | rows.size
             | free.size | bound.size | Mf.size | Minv.size | y.size | yu.size | dAT.size
@@ -496,23 +507,36 @@ def pose_jacobian(kind: int, weight: float, anchors: NDArray, attachments: NDArr
 @njit(cache=True, error_model="numpy", inline="always")
 def _derivative(A: NDArray, rows: NDArray, iq: NDArray, free: NDArray, nfree: int,
                 linear: bool, Minv: NDArray, wrt: int, dAT: NDArray, dAy: NDArray,
-                db: NDArray, g: NDArray, e: NDArray, dy: NDArray, x: NDArray, Jp: NDArray
-                ) -> None:
-    """``Jp`` (m, n) of one pose from its reduced inverse, column by column."""
+                db: NDArray, g: NDArray, e: NDArray, dy: NDArray, x: NDArray, Jp: NDArray,
+                lb: NDArray, bound: NDArray) -> None:
+    """``Jp`` (m, n), or (m, m) for a bound, of one pose from its reduced inverse, column
+    by column (``bound``: the active bound's value per cable, NaN where free)."""
     n, m = A.shape
-    for j in range(n):
+    what = wrt & 3
+    columns = m if what >= T_MIN else n
+    for j in range(columns):
+        # A bound moves its cable where it is the active one (its side: lb or not).
+        moved = 0.0
+        if what >= T_MIN and bound[j] == bound[j]:
+            moved = 1.0 if (bound[j] == lb[j]) == (what == T_MIN) else 0.0
         for k in range(n):
-            if wrt == POSE:
+            if what == POSE:
                 g[k] = rows[k] * (db[k, j] - dAT[k, j])
-            else:
+            elif what == WRENCH:
                 g[k] = -rows[k] if k == j else 0.0
+            else:
+                g[k] = -rows[k] * A[k, j] * moved
         for i in range(m):
-            e[i] = dAy[i, j] if wrt == POSE else 0.0  # r = dA' y
+            e[i] = dAy[i, j] if what == POSE else 0.0  # r = dA' y
+        if wrt & MOVES_TARGET:  # the centred cost -q (lb + ub) / 2 of cable j
+            e[j] = -0.5 / iq[j]
         _reduced_solve(A, rows, iq, free, nfree, linear, Minv, g, e, dy, x)
         for i in range(m):
             Jp[i, j] = 0.0
         for a in range(nfree):
             Jp[free[a], j] = x[a]
+        if moved:
+            Jp[j, j] = 1.0
     if (A.size | rows.size | iq.size | free.size | Minv.size | dAT.size | dAy.size | db.size
-            | g.size | e.size | dy.size | x.size | Jp.size) < 0:
+            | g.size | e.size | dy.size | x.size | Jp.size | lb.size | bound.size) < 0:
         Jp[0, 0] = np.nan  # never: the arrays read after the branches

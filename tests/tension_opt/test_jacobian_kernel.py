@@ -44,7 +44,7 @@ def _agree(a, b):
 
 @pytest.mark.parametrize("name", list(ROBOTS))
 @pytest.mark.parametrize("objective", OBJECTIVES)
-@pytest.mark.parametrize("wrt", ["wrench", "pose"])
+@pytest.mark.parametrize("wrt", ["wrench", "pose", "t_min", "t_max"])
 def test_compiled_jacobian_is_the_numpy_one(name, objective, wrt):
     robot = ROBOTS[name]()
     poses = random_feasible_poses(robot, 48, seed=3)
@@ -66,9 +66,13 @@ def test_active_bounds_and_their_statuses_agree(name, objective):
     problem = to.TensionProblem(objective, t_min=t_min, t_max=t_max)
     rng = np.random.default_rng(0)
     wrench = rng.normal(0.0, 0.01 * robot.weight, (len(poses), robot.dof))
-    for wrt in ("wrench", "pose"):
+    moved = 0
+    for wrt in ("wrench", "pose", "t_min", "t_max"):
         a, b = _both(robot, poses, problem, wrt, wrench)
         _agree(a, b)
+        if wrt.startswith("t_"):
+            moved += int((np.abs(b.jacobian[b.ok]) > 0.5).sum())
+    assert moved  # some active bound moves its cable by one
     assert len(set(a.status)) >= 2  # more than one status among these poses
 
 
@@ -95,7 +99,8 @@ def test_routes_the_compiled_path_only_where_it_applies():
     chunked = to.distribute(robot, poses, "min_max", "closed_form", chunk_size=16)
     assert compiled_jacobian(chunked, "wrench", robot, poses, None) is None  # min-max
     chunked = to.distribute(robot, poses, "min_sum", "closed_form", chunk_size=16)
-    assert compiled_jacobian(chunked, "t_min", robot, poses, None) is None  # another wrt
+    assert compiled_jacobian(chunked, "previous", robot, poses, None) is None  # another wrt
+    assert compiled_jacobian(chunked, "drawing_points", robot, poses, None) is None
     assert compiled_jacobian(chunked, "wrench", robot, poses[:3], None) is None  # poses
     whole = to.distribute(robot, poses, "min_sum", "closed_form")
     assert compiled_jacobian(whole, "wrench", robot, poses, None) is None  # a form kept
@@ -124,7 +129,7 @@ def test_distributor_jacobian_is_the_solution_jacobian(name, objective):
     poses = random_feasible_poses(robot, 12, seed=11)
     dist = to.Distributor(robot, objective)
     sol = to.distribute(robot, poses, objective, "closed_form")
-    for wrt in ("wrench", "pose"):
+    for wrt in ("wrench", "pose", "t_min", "t_max"):
         ref = sol.jacobian(wrt, robot=robot, poses=poses)
         got = [dist.with_jacobian(np.ascontiguousarray(p), wrt) for p in poses]
         assert all(g.compiled for g in got)
@@ -191,7 +196,7 @@ def test_distributor_jacobian_off_the_compiled_route():
 def test_distributor_jacobian_bad_input_is_named():
     dist = to.Distributor(ROBOTS["study"]())
     with pytest.raises(to.InvalidInputError, match="wrt must be"):
-        dist.with_jacobian(np.zeros(3), "t_min")
+        dist.with_jacobian(np.zeros(3), "drawing_points")
     with pytest.raises(to.InvalidInputError, match="one pose"):
         dist.with_jacobian(np.zeros((2, 3)))
     assert dist(np.array([0.0, 0.0, 1.0])).jacobian is None  # a plain call has none
@@ -243,3 +248,30 @@ def test_four_cable_lanes_are_the_pose_by_pose_loop(t_max, problem, wrt):
     assert ok.sum() >= 300 and (~ok).any()
     np.testing.assert_allclose(Ja[ok], Jb[ok], rtol=0, atol=1e-12 * np.abs(Jb[ok]).max())
     assert np.isnan(Ja[~ok]).all()
+
+
+@pytest.mark.parametrize("objective", ["min_sum", "min_norm", "centered"])
+@pytest.mark.parametrize("wrt", ["t_min", "t_max"])
+def test_bound_jacobian_against_finite_differences(objective, wrt):
+    """dT / d t_min and d t_max of the compiled path against central differences of the
+    solver, bound by bound, on study poses with active bounds."""
+    robot = ROBOTS["study"]()
+    poses = random_feasible_poses(robot, 24, seed=21)
+    lo, hi = 2000.0, 9000.0
+    problem = to.TensionProblem(objective, t_min=lo, t_max=hi)
+    sol = to.distribute(robot, poses, problem, "closed_form", chunk_size=8)
+    sens = sol.jacobian(wrt, robot=robot, poses=poses)
+    assert sens.ok.sum() >= 12
+    h = 1e-3
+    for j in range(robot.m):
+        bounds = {"t_min": np.full(robot.m, lo), "t_max": np.full(robot.m, hi)}
+
+        def solve(delta, bounds=bounds, j=j):
+            moved = {k: v.copy() for k, v in bounds.items()}
+            moved[wrt][j] += delta
+            return to.distribute(robot, poses, to.TensionProblem(objective, **moved),
+                                 "closed_form").tensions
+
+        fd = (solve(h) - solve(-h)) / (2 * h)
+        ok = sens.ok
+        np.testing.assert_allclose(sens.jacobian[ok, :, j], fd[ok], rtol=0, atol=1e-6)
