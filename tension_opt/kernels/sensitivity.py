@@ -169,7 +169,7 @@ def jacobian_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray,
     # Work arrays made once and handed to the loop (see tension_opt.kernels).
     floats, free = np.empty(work_floats(m, n)), np.empty(m, dtype=np.int64)
     work, views = _carve(floats.ctypes.data, m, n), _problem_at(data.ctypes.data, m)
-    if not (side_by_side and int(data[0]) == 0 and m == 4 and n == 3 and wrt <= POSE):
+    if not (side_by_side and int(data[0]) == 0 and m == 4 and n == 3):
         _loop(data, views, poses, wrenches, T, z, y, solved, unique, wrt, J, codes, free,
               work)
     else:  # a point robot on four cables: blocks of poses side by side, then the rest

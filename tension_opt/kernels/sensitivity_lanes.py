@@ -20,8 +20,12 @@ identity for a linear objective), ``S = Ar W Ar'`` and ``Pw = W Ar' S^-1`` (m, n
   rows of ``Ar_F^-1`` on the free cables and zero on ``a``, whatever the weights:
   ``dT = Pi g``;
 
-with ``g`` the right-hand side of the equations and ``e = dA' y`` (the pose's). The
-answers agree with the pose-by-pose loop to rounding (tests compare them).
+with ``g`` the right-hand side of the equations and ``e = dA' y`` (the pose's). By a
+tension bound, only the vertex's held cable ``a`` moves with its own active bound
+(``g = -Ar_a``, ``dT_a = 1``), and for the centred objective an interior optimum
+follows the bound's share of its target (``e = -q_j e_j / 2``:
+``dT = (e_j - Pw Ar_j) / 2``). The answers agree with the pose-by-pose loop to rounding
+(tests compare them).
 """
 
 from __future__ import annotations
@@ -43,9 +47,12 @@ _ACTIVE_TOL, _MULTIPLIER_TOL = SENSITIVITY_ACTIVE_TOL, SENSITIVITY_MULTIPLIER_TO
 #: reference's limit (1e10) is judged exactly.
 _COND_LANES = 1e8
 # Fields of the work array: pose (3), wrench (3), tensions (4), multipliers (4), flag,
-# Jacobian (12: [i, j] at F_J + 3 i + j), code.
-F_P, F_W, F_T, F_Z, F_OK, F_J, F_CODE = 0, 3, 6, 10, 14, 15, 27
-FIELDS = 28
+# Jacobian (up to 16: [i, j] at F_J + 4 i + j), code.
+F_P, F_W, F_T, F_Z, F_OK, F_J, F_CODE = 0, 3, 6, 10, 14, 15, 31
+FIELDS = 32
+#: ``wrt`` codes (:mod:`tension_opt.kernels.sensitivity`): the pose, the lower bounds,
+#: and the flag of a cost that follows the bounds (centred).
+_POSE, _T_MIN, _MOVES_TARGET = 1, 2, 4
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -134,15 +141,18 @@ def _det3(ux: tuple, uy: tuple, uz: tuple, i: int, j: int, k: int) -> float:
 @njit(cache=True, error_model="numpy", inline="always")
 def _lane_step(S: NDArray, anchors: tuple, offs: tuple, weight: float, lb: tuple,
                ub: tuple, q: tuple, inv_q: tuple, c: tuple, linear: bool, numbers: tuple,
-               pose_wrt: bool) -> None:
+               wrt: int) -> None:
     """The Jacobians of the block's lanes (see the module docstring); ``inv_q``: one over
     the Hessian's entries (ones for a linear objective); ``numbers``: ``(top_lb, top_ub,
-    ub_share, row_floor)`` of the pose scaling. Divisions are taken once and multiplied
-    by (the answers differ from the pose-by-pose loop's in rounding only).
+    ub_share, row_floor)`` of the pose scaling; ``wrt``: the kernel's code. Divisions
+    are taken once and multiplied by (the answers differ from the pose-by-pose loop's in
+    rounding only).
 
     A hot numerical kernel: one loop over the lanes, which the compiler turns into
     vectors only as one body."""
     top_lb, top_ub, ub_share, row_floor = numbers
+    what, is_min, bounds = wrt & 3, (wrt & 3) == _T_MIN, (wrt & 3) >= _T_MIN
+    share = 0.5 if wrt >= _MOVES_TARGET else 0.0  # a centred cost follows the bounds
     for lane in range(LANES):
         p0, p1, p2 = S[at(F_P, lane)], S[at(F_P + 1, lane)], S[at(F_P + 2, lane)]
         b0 = 0.0 - S[at(F_W, lane)] + 0.0
@@ -243,26 +253,66 @@ def _lane_step(S: NDArray, anchors: tuple, offs: tuple, weight: float, lb: tuple
         S[at(F_CODE, lane)] = 0.0 if good else float(REDO)
         # The Jacobian, column by column (g = -rows_j e_j for the wrench).
         rows, y, Q = (r0, r1, r2), (y0_, y1_, y2_), (Q0, Q1, Q2)
-        if pose_wrt:
+        # By a bound: the vertex's held cable on its own active bound moves by one (``&``:
+        # a select, not a branch), the rest as the equations make it.
+        held = vertex & (lower == is_min)
+        dv = _apply(V0, V1, V2, -_pick(ax, a), -_pick(ay, a), -_pick(az, a))
+        dv = (1.0 if a == 0 else dv[0], 1.0 if a == 1 else dv[1],
+              1.0 if a == 2 else dv[2], 1.0 if a == 3 else dv[3])
+        half = 0.0 if vertex else share
+        if what == _POSE:
             _put(S, lane, 0, _pose_column(0, ux, uy, uz, L, T, rows, y, ws, (wx, wy, wz), Q,
                                           vertex))
             _put(S, lane, 1, _pose_column(1, ux, uy, uz, L, T, rows, y, ws, (wx, wy, wz), Q,
                                           vertex))
             _put(S, lane, 2, _pose_column(2, ux, uy, uz, L, T, rows, y, ws, (wx, wy, wz), Q,
                                           vertex))
-        else:
-            _put(S, lane, 0, (-r0 * Q0[0], -r0 * Q0[1], -r0 * Q0[2], -r0 * Q0[3]))
-            _put(S, lane, 1, (-r1 * Q1[0], -r1 * Q1[1], -r1 * Q1[2], -r1 * Q1[3]))
-            _put(S, lane, 2, (-r2 * Q2[0], -r2 * Q2[1], -r2 * Q2[2], -r2 * Q2[3]))
+        else:  # the wrench's columns or the bounds', chosen value by value
+            _put(S, lane, 0, _choose(bounds, _bound_column(0, a, held, dv, half, ax, ay, az,
+                                                           P0, P1, P2),
+                                     (-r0 * Q0[0], -r0 * Q0[1], -r0 * Q0[2], -r0 * Q0[3])))
+            _put(S, lane, 1, _choose(bounds, _bound_column(1, a, held, dv, half, ax, ay, az,
+                                                           P0, P1, P2),
+                                     (-r1 * Q1[0], -r1 * Q1[1], -r1 * Q1[2], -r1 * Q1[3])))
+            _put(S, lane, 2, _choose(bounds, _bound_column(2, a, held, dv, half, ax, ay, az,
+                                                           P0, P1, P2),
+                                     (-r2 * Q2[0], -r2 * Q2[1], -r2 * Q2[2], -r2 * Q2[3])))
+        # Stored on every path (unused but by the bounds): a store on one path only keeps
+        # the loop from vectors.
+        _put(S, lane, 3, _bound_column(3, a, held, dv, half, ax, ay, az, P0, P1, P2))
 
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _put(S: NDArray, lane: int, j: int, d: tuple) -> None:
     """Column ``j`` (a constant) of the lane's Jacobian into its fields."""
     S[at(F_J + j, lane)] = d[0]
-    S[at(F_J + 3 + j, lane)] = d[1]
-    S[at(F_J + 6 + j, lane)] = d[2]
-    S[at(F_J + 9 + j, lane)] = d[3]
+    S[at(F_J + 4 + j, lane)] = d[1]
+    S[at(F_J + 8 + j, lane)] = d[2]
+    S[at(F_J + 12 + j, lane)] = d[3]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _choose(flag: bool, a: tuple, b: tuple) -> tuple[float, float, float, float]:
+    """``a`` where ``flag``, else ``b``, value by value (selects)."""
+    return (a[0] if flag else b[0], a[1] if flag else b[1], a[2] if flag else b[2],
+            a[3] if flag else b[3])
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _bound_column(j: int, a: int, held: bool, dv: tuple, half: float, ax: tuple, ay: tuple,
+                  az: tuple, P0: tuple, P1: tuple, P2: tuple
+                  ) -> tuple[float, float, float, float]:
+    """Column ``j`` (a constant) of ``dT / d bound``: ``dv`` where cable ``j`` is the
+    vertex's held cable on that bound (``held``), else ``half (e_j - Pw Ar_j)`` (``half``
+    zero but for a centred interior optimum)."""
+    on = held & (a == j)
+    k0, k1, k2 = ax[j], ay[j], az[j]
+    f0 = half * ((1.0 if j == 0 else 0.0) - (P0[0] * k0 + P1[0] * k1 + P2[0] * k2))
+    f1 = half * ((1.0 if j == 1 else 0.0) - (P0[1] * k0 + P1[1] * k1 + P2[1] * k2))
+    f2 = half * ((1.0 if j == 2 else 0.0) - (P0[2] * k0 + P1[2] * k1 + P2[2] * k2))
+    f3 = half * ((1.0 if j == 3 else 0.0) - (P0[3] * k0 + P1[3] * k1 + P2[3] * k2))
+    return (dv[0] if on else f0, dv[1] if on else f1, dv[2] if on else f2,
+            dv[3] if on else f3)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -369,7 +419,7 @@ def lane_jacobians(data: NDArray, views: tuple, poses: NDArray, wrenches: NDArra
         _load(S, poses, wrenches, T, z, y, solved, unique, start)
         # One copy of the step (each copy costs its compile time): the choice of wrt
         # is a branch the compiler may hoist out of the lanes' loop.
-        _lane_step(S, anchors, offs, weight, lb, ub, q, inv_q, c, linear, numbers, wrt == 1)
+        _lane_step(S, anchors, offs, weight, lb, ub, q, inv_q, c, linear, numbers, wrt)
         for lane in range(fmin(LANES, N - start)):
             p = start + lane
             if S[at(F_CODE, lane)] != 0.0:
@@ -378,6 +428,6 @@ def lane_jacobians(data: NDArray, views: tuple, poses: NDArray, wrenches: NDArra
                 continue
             codes[p] = 0
             for i in range(4):
-                for j in range(3):
-                    J[p, i, j] = S[at(F_J + 3 * i + j, lane)]
+                for j in range(J.shape[2]):
+                    J[p, i, j] = S[at(F_J + 4 * i + j, lane)]
     return redo

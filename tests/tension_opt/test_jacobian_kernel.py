@@ -222,15 +222,15 @@ def test_the_real_time_kernel_leaves_the_certificates_multipliers_where_read():
     (15000.0, to.TensionProblem("min_norm", t_min=2000.0)),
     (15000.0, to.TensionProblem("min_sum", weights=[1.0, 2.0, 0.5, 1.5])),
 ])
-@pytest.mark.parametrize("wrt", [0, 1])
+@pytest.mark.parametrize("wrt", ["wrench", "pose", "t_min", "t_max"])
 def test_four_cable_lanes_are_the_pose_by_pose_loop(t_max, problem, wrt):
     """The point robot on four cables runs its common poses side by side; the others go
     pose by pose. Both give the same statuses and Jacobians to rounding, here with
     vertices, interior optima, poses on both bounds and unsolved poses."""
-    from tension_opt.distribution.compiled_sensitivity import _arrays
+    from tension_opt.distribution.compiled_sensitivity import _CODES, _arrays
     from tension_opt.distribution.packing import pack_certified
     from tension_opt.kernels.arrays import frozen
-    from tension_opt.kernels.sensitivity import jacobian_poses
+    from tension_opt.kernels.sensitivity import MOVES_TARGET, jacobian_poses
 
     robot = to.presets.algae_harvester(t_max=t_max)
     rng = np.random.default_rng(4)
@@ -239,15 +239,21 @@ def test_four_cable_lanes_are_the_pose_by_pose_loop(t_max, problem, wrt):
     sol = to.distribute(robot, poses, problem, "closed_form")
     arrays = _arrays(sol, robot, poses, None, 4, 3, len(poses))
     data = frozen(pack_certified(robot, sol.problem, 0.0))  # the route's types: one signature
-    out = [(np.empty((len(poses), 4, 3)), np.empty(len(poses), np.int8)) for _ in range(2)]
+    code = _CODES[wrt] + (MOVES_TARGET if wrt.startswith("t_") and sol.problem.objective
+                          == "centered" else 0)
+    D = 3 if wrt in ("wrench", "pose") else 4
+    out = [(np.empty((len(poses), 4, D)), np.empty(len(poses), np.int8)) for _ in range(2)]
     for (J, codes), side in zip(out, (True, False), strict=True):
-        jacobian_poses(data, *arrays, wrt, J, codes, side)
+        jacobian_poses(data, *arrays, code, J, codes, side)
     (Ja, ca), (Jb, cb) = out
     np.testing.assert_array_equal(ca, cb)
     ok = cb == 0
     assert ok.sum() >= 300 and (~ok).any()
-    np.testing.assert_allclose(Ja[ok], Jb[ok], rtol=0, atol=1e-12 * np.abs(Jb[ok]).max())
+    np.testing.assert_allclose(Ja[ok], Jb[ok], rtol=0,
+                               atol=1e-12 * max(np.abs(Jb[ok]).max(), 1.0))
     assert np.isnan(Ja[~ok]).all()
+    if wrt.startswith("t_") and robot.t_max[0] < np.inf and problem != "min_norm":
+        assert (np.abs(Jb[ok]) > 0.5).any()  # some bound moves its cable
 
 
 @pytest.mark.parametrize("objective", ["min_sum", "min_norm", "centered"])
