@@ -3,7 +3,8 @@
 :func:`tension_opt.distribution.sensitivity.tension_jacobian` takes this route, by a rule
 on the call alone (never on what numba happens to have cached), where:
 
-- ``wrt`` is ``"wrench"``, ``"pose"``, ``"t_min"`` or ``"t_max"``;
+- ``wrt`` is ``"wrench"``, ``"pose"``, ``"t_min"``, ``"t_max"``, ``"drawing_points"``
+  or ``"attachment_points"``;
 - the solution keeps no form (a batch of more than
   :data:`~tension_opt.distribution.entry.CHUNK_SIZE` poses, solved in chunks), and the
   call gives the ``robot`` and ``poses`` it needs anyway;
@@ -34,13 +35,14 @@ __all__ = ["TASK", "RealtimeJacobian", "compiled_jacobian", "warm_kernel"]
 #: Poses per kernel call of a large batch (the threads' unit of work).
 TASK = 32768
 #: The kernel's code of each ``wrt`` it covers (:mod:`tension_opt.kernels.sensitivity`).
-_CODES = {"wrench": 0, "pose": 1, "t_min": 2, "t_max": 3}
+_CODES = {"wrench": 0, "pose": 1, "t_min": 2, "t_max": 3, "drawing_points": 8,
+          "attachment_points": 9}
 
 
 def compiled_jacobian(solution: Any, wrt: str, robot: Any, poses: ArrayLike | None,
                       wrench: ArrayLike | None) -> tuple[NDArray, NDArray] | None:
-    """``(jacobian (N, m, n) or (N, m, m), status codes (N,) of int8)`` of ``solution``
-    by the compiled kernel, or None where the call does not take this route (see the
+    """``(jacobian (N, m, n), (N, m, m) or (N, m, m, 3), status codes (N,) of int8)`` of
+    ``solution`` by the compiled kernel, or None where the call does not take this route (see the
     module docstring; the numpy path then answers, or raises its error for bad input)."""
     from tension_opt.kernels.geometry import compiled_kind
 
@@ -58,7 +60,8 @@ def compiled_jacobian(solution: Any, wrt: str, robot: Any, poses: ArrayLike | No
     code = _CODES[wrt]
     if wrt.startswith("t_") and type(solution.problem.objective) is Centered:
         code += 4  # MOVES_TARGET: the centred cost follows the bounds
-    return _run(data, arrays, code, m, n, N)
+    J, codes = _run(data, arrays, code, m, n, N)
+    return (J.reshape(N, m, m, 3) if wrt.endswith("points") else J), codes
 
 
 class RealtimeJacobian:
@@ -74,10 +77,10 @@ class RealtimeJacobian:
         from tension_opt.kernels.distributor import multipliers_offset
         from tension_opt.kernels.first_use import announce
         from tension_opt.kernels.launch import entry_point
-        from tension_opt.kernels.sensitivity import jacobian_one, work_floats
+        from tension_opt.kernels.sensitivity import columns, jacobian_one, work_floats
 
         announce("Jacobians", jacobian_one)
-        self.data, self.m, self.n = data, m, n
+        self.data, self.m, self.n, self.columns = data, m, n, columns
         self.moves_target = 4 if moves_target else 0  # the kernel's MOVES_TARGET
         self.offset = multipliers_offset(m, n)
         self.floats, self.shape = int(work_floats(m, n)), (m, n)
@@ -98,7 +101,8 @@ class RealtimeJacobian:
 
     def __call__(self, pose: NDArray, T: NDArray, local: Any, unique: bool,
                  wrt: str) -> tuple[NDArray, int]:
-        """``(J (m, n), or (m, m) by a bound, status code)`` of the pose just solved
+        """``(J (m, n); (m, m) by a bound; (m, m, 3) by the points, status code)`` of the
+        pose just solved
         (contiguous float vectors
         ``pose`` and ``T``; ``local``: the distributor's thread-local state, whose
         ``work`` the real-time kernel wrote and which keeps this thread's buffers)."""
@@ -108,10 +112,12 @@ class RealtimeJacobian:
             floats, free = np.empty(self.floats), np.empty(self.m, dtype=np.int64)
             local.jacobian_work = floats, free
         what = _CODES[wrt]
-        J = np.empty(self.shape if what <= 1 else (self.m, self.m))
-        code = self.kernel(self.data, pose, T, local.work, self.offset, unique,
-                           what if what <= 1 else what + self.moves_target, J, floats, free)
-        return J, code
+        if what in (2, 3):  # a bound: the centred cost follows it
+            what += self.moves_target
+        J: NDArray = np.empty((self.m, self.columns(what, self.m, self.n)))
+        code = self.kernel(self.data, pose, T, local.work, self.offset, unique, what, J,
+                           floats, free)
+        return (J.reshape(self.m, self.m, 3) if what >= 8 else J), code  # points: (m, m, 3)
 
 
 def _covered(robot: CableRobot, problem: Any) -> NDArray | None:
@@ -170,7 +176,9 @@ def _run(data: NDArray, arrays: tuple[NDArray, ...], wrt: int, m: int, n: int, N
     announce("Jacobian", jacobian_poses)
     data = _read_only(data, float)
     p, w, T, z, y, solved, unique = arrays
-    J = np.empty((N, m, n if wrt & 3 <= 1 else m))
+    from tension_opt.kernels.sensitivity import columns
+
+    J = np.empty((N, m, int(columns(wrt, m, n))))
     codes = np.empty(N, dtype=np.int8)
 
     def task(k: int) -> None:

@@ -47,7 +47,7 @@ from tension_opt.distribution.certified import CertifiedPlan, certified_plan
 from tension_opt.distribution.entry import CHUNK_SIZE, distribute
 from tension_opt.distribution.packing import pack_realtime
 from tension_opt.distribution.realtime_result import RealtimeResult
-from tension_opt.distribution.sensitivity import SENSITIVITY_STATUSES
+from tension_opt.distribution.sensitivity import SENSITIVITY_STATUSES, jacobian_shape
 from tension_opt.distribution.solution import TensionSolution
 from tension_opt.errors import InvalidInputError
 from tension_opt.problem.form import TensionProblem, as_problem
@@ -63,6 +63,9 @@ _STATUS = (Status.OPTIMAL, Status.INFEASIBLE, Status.UNBOUNDED, Status.INACCURAT
            Status.SOLVER_ERROR)
 _FALLBACK, _BAD_INPUT = 9, 8
 _F64 = np.dtype(np.float64)
+#: What :meth:`Distributor.with_jacobian` differentiates by (all but the previous
+#: tensions, which a stream's pose takes from its own last answer).
+_REALTIME_WRT = ("pose", "wrench", "t_min", "t_max", "drawing_points", "attachment_points")
 #: Status values by kernel code (a last entry for codes of poses solved otherwise).
 _STATUS_VALUES = np.array([s.value for s in _STATUS] + [""], dtype=STATUS_DTYPE)
 
@@ -231,8 +234,9 @@ class Distributor:
                       wrench: ArrayLike | None = None,
                       previous: ArrayLike | None = None) -> RealtimeResult:
         """One pose (n,) solved as a call solves it, with the Jacobian of its optimal
-        tensions by ``wrt`` (``"wrench"``, ``"pose"``, ``"t_min"`` or ``"t_max"``) in the
-        result's ``jacobian`` ((m, n); (m, m) by the bounds) and ``jacobian_status``:
+        tensions by ``wrt`` (``"wrench"``, ``"pose"``, ``"t_min"``, ``"t_max"``,
+        ``"drawing_points"`` or ``"attachment_points"``) in the result's ``jacobian``
+        ((m, n); (m, m) by the bounds; (m, m, 3) by the points) and ``jacobian_status``:
         the compiled kernel's where the pose went through the compiled closed form (the
         package's objectives without min-max term, smoothing or rate limit), else
         :meth:`TensionSolution.jacobian <tension_opt.TensionSolution.jacobian>` of the
@@ -244,10 +248,10 @@ class Distributor:
             For another ``wrt`` or a batch of poses (use :func:`tension_opt.distribute`
             and ``solution.jacobian``), or bad input as a call raises it.
         """
-        if wrt not in ("pose", "wrench", "t_min", "t_max"):
-            raise InvalidInputError(f"wrt must be 'wrench', 'pose', 't_min' or 't_max', got "
-                                    f"{wrt!r}: for another, solve with "
-                                    "tension_opt.distribute and call solution.jacobian")
+        if wrt not in _REALTIME_WRT:
+            raise InvalidInputError(f"wrt must be one of {list(_REALTIME_WRT)}, got {wrt!r}: "
+                                    "for another, solve with tension_opt.distribute and call "
+                                    "solution.jacobian")
         route = self._jacobian_route
         if route is None:
             from tension_opt.distribution.compiled_sensitivity import RealtimeJacobian
@@ -268,8 +272,8 @@ class Distributor:
             prev = self._stream_start(previous)
             result = self(p, wrench, prev)
         if result.status is not Status.OPTIMAL:
-            columns = self.robot.dof if wrt in ("pose", "wrench") else self.robot.m
-            J, status = np.full((self.robot.m, columns), np.nan), "not_optimal"
+            J, status = np.full(jacobian_shape(wrt, 1, self.robot.m, self.robot.dof)[1:],
+                                np.nan), "not_optimal"
         elif route and result.compiled:
             J, code = route(p, result.tensions, self._local, result.unique, wrt)
             status = SENSITIVITY_STATUSES[code]

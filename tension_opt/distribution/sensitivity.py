@@ -264,6 +264,7 @@ def checked_form(
 
 
 def jacobian_shape(wrt: str, N: int, m: int, n: int) -> tuple[int, ...]:
+    """Shape of the Jacobian of ``N`` poses by ``wrt``."""
     if wrt in ("wrench", "pose"):
         return (N, m, n)
     if wrt in ("t_min", "t_max", "previous"):

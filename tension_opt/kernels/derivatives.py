@@ -1,12 +1,16 @@
-"""Derivatives of the structure matrix and of the required wrench by the pose, compiled,
-for one pose: the twin of :func:`tension_opt.robot.derivatives.pose_derivatives`.
+"""Derivatives of the structure matrix and of the required wrench by the pose, and of a
+column by its cable's points, compiled, for one pose: the twins of
+:func:`tension_opt.robot.derivatives.pose_derivatives` and
+:func:`~tension_opt.robot.derivatives.column_derivatives`.
 
 A step moves the platform by ``t`` and turns it by ``omega`` (the left Jacobian of SO(3)
 for ``"spatial6"``), so ``dr = omega x r``, ``dv = -t - dr``,
 ``du = (dv - u (u . dv)) / L`` and the column moves by ``[du; dr x u + r x du]``;
 gravity's moment moves by ``(omega x R c) x f``. :func:`pose_terms` gives these
 derivatives already applied to the tensions and the multipliers, as the Jacobians of
-:mod:`tension_opt.kernels.sensitivity` use them.
+:mod:`tension_opt.kernels.sensitivity` use them. A drawing point's step ``e_c`` moves
+only its own cable's column, with ``dv = e_c`` and ``dr = 0``; an attachment's (platform
+frame) with ``dr = R e_c`` and ``dv = -dr`` (:func:`point_column`).
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ from numpy.typing import NDArray
 
 from tension_opt.kernels.geometry import rotation
 
-__all__ = ["pose_terms"]
+__all__ = ["point_column", "pose_terms"]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -79,6 +83,55 @@ def _left_coefficients(kind: int, pose: NDArray) -> tuple[float, float]:
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _platform_position(kind: int, pose: NDArray) -> tuple[float, float, float]:
+    """The reference point's position (m) of a pose of the kind."""
+    px, py, pz = pose[0], pose[1] if kind != 1 else 0.0, 0.0
+    if kind == 0 or kind == 3:
+        pz = pose[2]
+    elif kind == 1:
+        pz = pose[1]
+    if pose.size < 0:  # never: the pose read after the branches
+        px = np.nan
+    return px, py, pz
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def point_column(kind: int, anchors: NDArray, attachments: NDArray, pose: NDArray,
+                 R: tuple, i: int, c: int, attachment: bool, out: NDArray) -> None:
+    """``out`` (n,): the derivative of column ``i`` of the structure matrix by coordinate
+    ``c`` of cable ``i``'s drawing point (base frame) or, with ``attachment``, of its
+    attachment (platform frame), at a pose whose rotation is ``R`` (row by row)."""
+    R00, R01, R02, R10, R11, R12, R20, R21, R22 = R
+    px, py, pz = _platform_position(kind, pose)
+    a0, a1, a2 = attachments[i, 0], attachments[i, 1], attachments[i, 2]
+    r0 = R00 * a0 + R01 * a1 + R02 * a2
+    r1 = R10 * a0 + R11 * a1 + R12 * a2
+    r2 = R20 * a0 + R21 * a1 + R22 * a2
+    v0 = anchors[i, 0] - (px + r0)
+    v1 = anchors[i, 1] - (py + r1)
+    v2 = anchors[i, 2] - (pz + r2)
+    L = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    u0, u1, u2 = v0 / L, v1 / L, v2 / L
+    dr0 = dr1 = dr2 = 0.0
+    if attachment:  # r = R a moves by R e_c, the cable's vector the other way
+        dr0 = R00 if c == 0 else (R01 if c == 1 else R02)
+        dr1 = R10 if c == 0 else (R11 if c == 1 else R12)
+        dr2 = R20 if c == 0 else (R21 if c == 1 else R22)
+        dv0, dv1, dv2 = -dr0, -dr1, -dr2
+    else:
+        dv0, dv1, dv2 = 1.0 if c == 0 else 0.0, 1.0 if c == 1 else 0.0, 1.0 if c == 2 else 0.0
+    ud = u0 * dv0 + u1 * dv1 + u2 * dv2
+    du0, du1, du2 = (dv0 - u0 * ud) / L, (dv1 - u1 * ud) / L, (dv2 - u2 * ud) / L
+    m0 = (dr1 * u2 - dr2 * u1) + (r1 * du2 - r2 * du1)
+    m1 = (dr2 * u0 - dr0 * u2) + (r2 * du0 - r0 * du2)
+    m2 = (dr0 * u1 - dr1 * u0) + (r0 * du1 - r1 * du0)
+    for k in range(out.size):
+        out[k] = _kept(kind, k, du0, du1, du2, m0, m1, m2)
+    if (anchors.size | attachments.size | pose.size | out.size) < 0:
+        out[0] = np.nan  # never: the arrays read after the branches
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def pose_terms(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
                 weight: float, pose: NDArray, T: NDArray, yu: NDArray, dAT: NDArray,
                 dAy: NDArray, db: NDArray) -> None:
@@ -87,11 +140,7 @@ def pose_terms(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
     wrench ``b = -(w_g + w)``."""
     n, m = dAT.shape[0], anchors.shape[0]
     R00, R01, R02, R10, R11, R12, R20, R21, R22 = rotation(kind, pose)
-    px, py, pz = pose[0], pose[1] if kind != 1 else 0.0, 0.0
-    if kind == 0 or kind == 3:
-        pz = pose[2]
-    elif kind == 1:
-        pz = pose[1]
+    px, py, pz = _platform_position(kind, pose)
     c0 = R00 * com[0] + R01 * com[1] + R02 * com[2]
     c1 = R10 * com[0] + R11 * com[1] + R12 * com[2]
     c2 = R20 * com[0] + R21 * com[1] + R22 * com[2]

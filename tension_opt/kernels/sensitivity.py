@@ -1,5 +1,5 @@
-"""Jacobians of optimal tensions by the wrench, the pose and the tension bounds,
-compiled, pose by pose.
+"""Jacobians of optimal tensions by the wrench, the pose, the tension bounds and the
+cables' points, compiled, pose by pose.
 
 The reference is :class:`tension_opt.distribution.sensitivity.KktSystem` on a problem
 without rows (no min-max term) whose objective is linear (every Hessian entry zero) or
@@ -16,7 +16,10 @@ with ``dbr = rows * (db - dA T)`` and ``r = dA_F' y`` (``dA``, ``db`` zero for t
 wrench, whose ``db`` is ``-e_j``). A bound ``t_min_j`` or ``t_max_j`` moves cable ``j``
 by one where it is the active bound (``dbr = -rows * A_j``, ``r`` zero) and, for the
 centred objective (whose cost ``c_j = -q_j (t_min_j + t_max_j) / 2`` follows the
-bounds), a free cable ``j``'s cost by ``r_j = -q_j / 2``. This is the full KKT matrix
+bounds), a free cable ``j``'s cost by ``r_j = -q_j / 2``. A drawing point or an
+attachment moves its own cable's column alone (``dbr = -rows * dA_i T_i``,
+``r_i = dA_i' y``: :func:`tension_opt.kernels.derivatives.point_column`). This is the
+full KKT matrix
 of the reference eliminated block by block, so the derivatives agree to rounding.
 
 The per-pose statuses are the reference's: the active set from the certificate's
@@ -45,9 +48,9 @@ from numba import njit
 from numpy.typing import NDArray
 
 from tension_opt.kernels.closed_form import HEADER
-from tension_opt.kernels.derivatives import pose_terms
+from tension_opt.kernels.derivatives import point_column, pose_terms
 from tension_opt.kernels.distributor import matrix_at, vector_at
-from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into
+from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, rotation
 from tension_opt.kernels.scaling import pose_scaling
 from tension_opt.kernels.sensitivity_lanes import REDO, lane_jacobians
 from tension_opt.tolerances import (
@@ -58,13 +61,13 @@ from tension_opt.tolerances import (
     UB_SHARE,
 )
 
-__all__ = ["ACTIVE_TOL", "COND_MAX", "MOVES_TARGET", "MULTIPLIER_TOL", "NON_UNIQUE", "POSE",
-           "T_MAX", "T_MIN", "WRENCH", "jacobian_one", "jacobian_poses", "pose_jacobian",
-           "work_floats"]
+__all__ = ["ACTIVE_TOL", "ATTACHMENT_POINTS", "COND_MAX", "DRAWING_POINTS", "MOVES_TARGET",
+           "MULTIPLIER_TOL", "NON_UNIQUE", "POSE", "T_MAX", "T_MIN", "WRENCH", "columns",
+           "jacobian_one", "jacobian_poses", "pose_jacobian", "work_floats"]
 
 #: What a Jacobian is taken with respect to: the external wrench, the pose, the lower and
-#: the upper tension bounds (the low two bits of ``wrt``).
-WRENCH, POSE, T_MIN, T_MAX = 0, 1, 2, 3
+#: the upper tension bounds, the drawing points and the attachment points.
+WRENCH, POSE, T_MIN, T_MAX, DRAWING_POINTS, ATTACHMENT_POINTS = 0, 1, 2, 3, 8, 9
 #: Added to ``T_MIN`` or ``T_MAX``: the bounds also move the objective's cost (centred).
 MOVES_TARGET = 4
 #: Statuses, in the order of :data:`tension_opt.distribution.sensitivity.SENSITIVITY_STATUSES`.
@@ -74,6 +77,14 @@ NON_UNIQUE = _NON_UNIQUE
 ACTIVE_TOL = SENSITIVITY_ACTIVE_TOL
 MULTIPLIER_TOL = SENSITIVITY_MULTIPLIER_TOL
 COND_MAX = SENSITIVITY_COND_MAX
+
+
+@njit(cache=True)
+def columns(wrt: int, m: int, n: int) -> int:
+    """Columns of one pose's Jacobian by ``wrt``: ``n`` by the wrench or the pose, ``m``
+    by a bound, ``3 m`` by the points (cable ``i``'s coordinate ``c`` at ``3 i + c``)."""
+    what = wrt & ~MOVES_TARGET
+    return n if what <= POSE else (m if what <= T_MAX else 3 * m)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -155,8 +166,9 @@ def jacobian_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray,
         multipliers are finite); poses whose optimum is unique.
     wrt : int
         :data:`WRENCH`, :data:`POSE`, :data:`T_MIN` or :data:`T_MAX` (plus
-        :data:`MOVES_TARGET` for the centred objective).
-    J : ndarray, shape (N, m, n), or (N, m, m) for the bounds
+        :data:`MOVES_TARGET` for the centred objective), :data:`DRAWING_POINTS` or
+        :data:`ATTACHMENT_POINTS`.
+    J : ndarray, shape (N, m, :func:`columns`)
         Written: ``dT / d wrt`` (NaN where the status is not ``"ok"``).
     codes : ndarray of int8, shape (N,)
         Written: the statuses' codes.
@@ -169,7 +181,8 @@ def jacobian_poses(data: NDArray, poses: NDArray, wrenches: NDArray, T: NDArray,
     # Work arrays made once and handed to the loop (see tension_opt.kernels).
     floats, free = np.empty(work_floats(m, n)), np.empty(m, dtype=np.int64)
     work, views = _carve(floats.ctypes.data, m, n), _problem_at(data.ctypes.data, m)
-    if not (side_by_side and int(data[0]) == 0 and m == 4 and n == 3):
+    lanes = int(data[0]) == 0 and m == 4 and n == 3 and wrt & ~MOVES_TARGET <= T_MAX
+    if not (side_by_side and lanes):
         _loop(data, views, poses, wrenches, T, z, y, solved, unique, wrt, J, codes, free,
               work)
     else:  # a point robot on four cables: blocks of poses side by side, then the rest
@@ -205,7 +218,7 @@ def _problem_at(d: int, m: int) -> tuple[NDArray, ...]:
 @njit(cache=True)
 def work_floats(m: int, n: int) -> int:
     """Floats of work space of one pose's Jacobian (:func:`_carve`)."""
-    return 8 * n + 6 * m + 2 * n * m + m * max(m, n) + 4 * n * n
+    return 8 * n + 6 * m + 2 * n * m + 3 * m * m + 4 * n * n
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -214,11 +227,11 @@ def _carve(address: int, m: int, n: int) -> tuple[NDArray, ...]:
     owning nothing (no reference counts: see
     :func:`tension_opt.kernels.distributor.vector_at`; the caller keeps the buffer
     alive), in this order: ``pose, wrench, b, rows, y, yu, g, dy`` (n), ``bound, e, x,
-    Tp, zp, iq`` (m), ``A`` (n, m), ``dAy`` (m, n), ``Jp`` (m, max(m, n)), ``Mf, Minv,
-    dAT, db`` (n, n)."""
+    Tp, zp, iq`` (m), ``A`` (n, m), ``dAy`` (m, n), ``Jp`` (m, 3 m), ``Mf, Minv, dAT,
+    db`` (n, n)."""
     nm, nn, o = n * m, n * n, 8 * n
     p = o + 6 * m
-    q = p + 2 * nm + m * max(m, n)
+    q = p + 2 * nm + 3 * m * m
     a = address
     return (vector_at(a, 0, n), vector_at(a, n, n), vector_at(a, 2 * n, n),
             vector_at(a, 3 * n, n), vector_at(a, 4 * n, n), vector_at(a, 5 * n, n),
@@ -226,7 +239,7 @@ def _carve(address: int, m: int, n: int) -> tuple[NDArray, ...]:
             vector_at(a, o + m, m), vector_at(a, o + 2 * m, m), vector_at(a, o + 3 * m, m),
             vector_at(a, o + 4 * m, m), vector_at(a, o + 5 * m, m), matrix_at(a, p, n, m),
             matrix_at(a, p + nm, m, n),
-            matrix_at(a, p + 2 * nm, m, max(m, n)), matrix_at(a, q, n, n),
+            matrix_at(a, p + 2 * nm, m, 3 * m), matrix_at(a, q, n, n),
             matrix_at(a, q + nn, n, n), matrix_at(a, q + 2 * nn, n, n),
             matrix_at(a, q + 3 * nn, n, n))
 
@@ -490,12 +503,12 @@ def pose_jacobian(kind: int, weight: float, anchors: NDArray, attachments: NDArr
         elif status == _OK and moved:
             status = _NOT_OPTIMAL
     if status == _OK:
+        for k in range(n):
+            yu[k] = rows[k] * y[k]
         if wrt == POSE:
-            for k in range(n):
-                yu[k] = rows[k] * y[k]
             pose_terms(kind, anchors, attachments, com, weight, pose, T, yu, dAT, dAy, db)
         _derivative(A, rows, iq, free, nfree, linear, Minv, wrt, dAT, dAy, db, g, e, dy, x,
-                    Jp, lb, bound)
+                    Jp, lb, bound, T, yu, (kind, anchors, attachments, pose))
     if (anchors.size | attachments.size | com.size | pose.size | A.size
             | b.size | iq.size | c.size | lb.size | ub.size | T.size | z.size | rows.size
             | free.size | bound.size | Mf.size | Minv.size | y.size | yu.size | dAT.size
@@ -508,26 +521,40 @@ def pose_jacobian(kind: int, weight: float, anchors: NDArray, attachments: NDArr
 def _derivative(A: NDArray, rows: NDArray, iq: NDArray, free: NDArray, nfree: int,
                 linear: bool, Minv: NDArray, wrt: int, dAT: NDArray, dAy: NDArray,
                 db: NDArray, g: NDArray, e: NDArray, dy: NDArray, x: NDArray, Jp: NDArray,
-                lb: NDArray, bound: NDArray) -> None:
-    """``Jp`` (m, n), or (m, m) for a bound, of one pose from its reduced inverse, column
-    by column (``bound``: the active bound's value per cable, NaN where free)."""
+                lb: NDArray, bound: NDArray, T: NDArray, yu: NDArray, robot: tuple) -> None:
+    """``Jp`` (m, :func:`columns`) of one pose from its reduced inverse, column by column
+    (``bound``: the active bound's value per cable, NaN where free; ``yu``: the row-scaled
+    multipliers; ``robot``: kind, anchors, attachments and the pose, for the points)."""
     n, m = A.shape
-    what = wrt & 3
-    columns = m if what >= T_MIN else n
-    for j in range(columns):
+    what = wrt & ~MOVES_TARGET
+    bounds, points = T_MIN <= what <= T_MAX, what >= DRAWING_POINTS
+    kind, anchors, attachments, pose = robot
+    R = rotation(kind, pose)
+    dcol = dAT[0]  # scratch (n,): dAT is the pose's alone
+    for j in range(columns(wrt, m, n)):
         # A bound moves its cable where it is the active one (its side: lb or not).
         moved = 0.0
-        if what >= T_MIN and bound[j] == bound[j]:
+        if bounds and bound[j] == bound[j]:
             moved = 1.0 if (bound[j] == lb[j]) == (what == T_MIN) else 0.0
+        if points:  # column j // 3 moves with its point's coordinate j % 3
+            point_column(kind, anchors, attachments, pose, R, j // 3, j % 3,
+                         what == ATTACHMENT_POINTS, dcol)
         for k in range(n):
             if what == POSE:
                 g[k] = rows[k] * (db[k, j] - dAT[k, j])
             elif what == WRENCH:
                 g[k] = -rows[k] if k == j else 0.0
-            else:
+            elif bounds:
                 g[k] = -rows[k] * A[k, j] * moved
+            else:
+                g[k] = -rows[k] * dcol[k] * T[j // 3]
         for i in range(m):
             e[i] = dAy[i, j] if what == POSE else 0.0  # r = dA' y
+        if points:
+            total = 0.0
+            for k in range(n):
+                total += dcol[k] * yu[k]
+            e[j // 3] = total
         if wrt & MOVES_TARGET:  # the centred cost -q (lb + ub) / 2 of cable j
             e[j] = -0.5 / iq[j]
         _reduced_solve(A, rows, iq, free, nfree, linear, Minv, g, e, dy, x)
@@ -538,5 +565,6 @@ def _derivative(A: NDArray, rows: NDArray, iq: NDArray, free: NDArray, nfree: in
         if moved:
             Jp[j, j] = 1.0
     if (A.size | rows.size | iq.size | free.size | Minv.size | dAT.size | dAy.size | db.size
-            | g.size | e.size | dy.size | x.size | Jp.size | lb.size | bound.size) < 0:
+            | g.size | e.size | dy.size | x.size | Jp.size | lb.size | bound.size | T.size
+            | yu.size | anchors.size | attachments.size | pose.size) < 0:
         Jp[0, 0] = np.nan  # never: the arrays read after the branches

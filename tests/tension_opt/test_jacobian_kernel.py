@@ -44,7 +44,8 @@ def _agree(a, b):
 
 @pytest.mark.parametrize("name", list(ROBOTS))
 @pytest.mark.parametrize("objective", OBJECTIVES)
-@pytest.mark.parametrize("wrt", ["wrench", "pose", "t_min", "t_max"])
+@pytest.mark.parametrize("wrt", ["wrench", "pose", "t_min", "t_max", "drawing_points",
+                                 "attachment_points"])
 def test_compiled_jacobian_is_the_numpy_one(name, objective, wrt):
     robot = ROBOTS[name]()
     poses = random_feasible_poses(robot, 48, seed=3)
@@ -67,7 +68,7 @@ def test_active_bounds_and_their_statuses_agree(name, objective):
     rng = np.random.default_rng(0)
     wrench = rng.normal(0.0, 0.01 * robot.weight, (len(poses), robot.dof))
     moved = 0
-    for wrt in ("wrench", "pose", "t_min", "t_max"):
+    for wrt in ("wrench", "pose", "t_min", "t_max", "drawing_points", "attachment_points"):
         a, b = _both(robot, poses, problem, wrt, wrench)
         _agree(a, b)
         if wrt.startswith("t_"):
@@ -100,7 +101,6 @@ def test_routes_the_compiled_path_only_where_it_applies():
     assert compiled_jacobian(chunked, "wrench", robot, poses, None) is None  # min-max
     chunked = to.distribute(robot, poses, "min_sum", "closed_form", chunk_size=16)
     assert compiled_jacobian(chunked, "previous", robot, poses, None) is None  # another wrt
-    assert compiled_jacobian(chunked, "drawing_points", robot, poses, None) is None
     assert compiled_jacobian(chunked, "wrench", robot, poses[:3], None) is None  # poses
     whole = to.distribute(robot, poses, "min_sum", "closed_form")
     assert compiled_jacobian(whole, "wrench", robot, poses, None) is None  # a form kept
@@ -129,7 +129,7 @@ def test_distributor_jacobian_is_the_solution_jacobian(name, objective):
     poses = random_feasible_poses(robot, 12, seed=11)
     dist = to.Distributor(robot, objective)
     sol = to.distribute(robot, poses, objective, "closed_form")
-    for wrt in ("wrench", "pose", "t_min", "t_max"):
+    for wrt in ("wrench", "pose", "t_min", "t_max", "drawing_points", "attachment_points"):
         ref = sol.jacobian(wrt, robot=robot, poses=poses)
         got = [dist.with_jacobian(np.ascontiguousarray(p), wrt) for p in poses]
         assert all(g.compiled for g in got)
@@ -196,7 +196,7 @@ def test_distributor_jacobian_off_the_compiled_route():
 def test_distributor_jacobian_bad_input_is_named():
     dist = to.Distributor(ROBOTS["study"]())
     with pytest.raises(to.InvalidInputError, match="wrt must be"):
-        dist.with_jacobian(np.zeros(3), "drawing_points")
+        dist.with_jacobian(np.zeros(3), "previous")
     with pytest.raises(to.InvalidInputError, match="one pose"):
         dist.with_jacobian(np.zeros((2, 3)))
     assert dist(np.array([0.0, 0.0, 1.0])).jacobian is None  # a plain call has none
