@@ -40,7 +40,13 @@ from tension_opt import CableRobot
 from tension_opt.kernels import closed_form as cf
 from tension_opt.kernels.arrays import writable
 from tension_opt.kernels.first_use import announce
-from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, rotation
+from tension_opt.kernels.geometry import (
+    GEOMETRY_OK,
+    arm_and_vector,
+    geometry_into,
+    platform_position,
+    rotation,
+)
 from tension_opt.problem.form import TensionProblem, as_problem
 from tension_opt.status import STATUS_DTYPE, Status
 from tension_opt.tolerances import accuracy_target
@@ -107,15 +113,9 @@ def cable_planes_into(kind: int, anchors: NDArray, attachments: NDArray, pose: N
                       geo: NDArray) -> bool:
     """Per cable ``(x, z, chord, e_x, e_y, arm)`` of one pose into ``geo`` (m, 8)
     (:func:`catenary.geometry.cable_planes`); False if a cable is vertical."""
-    R00, R01, R02, R10, R11, R12, R20, R21, R22 = rotation(kind, pose)
+    R, position = rotation(kind, pose), platform_position(kind, pose)
     for i in range(anchors.shape[0]):
-        a0, a1, a2 = attachments[i, 0], attachments[i, 1], attachments[i, 2]
-        r0 = R00 * a0 + R01 * a1 + R02 * a2
-        r1 = R10 * a0 + R11 * a1 + R12 * a2
-        r2 = R20 * a0 + R21 * a1 + R22 * a2
-        d0 = anchors[i, 0] - (pose[0] + r0)
-        d1 = anchors[i, 1] - (pose[1] + r1)
-        d2 = anchors[i, 2] - (pose[2] + r2)
+        r0, r1, r2, d0, d1, d2 = arm_and_vector(R, position, anchors, attachments, i)
         x = math.hypot(d0, d1)
         if not x > 0.0:
             return False

@@ -91,6 +91,13 @@ class CablePlanes:
         """The planes of some poses (``index`` into the batch)."""
         return CablePlanes(*(getattr(self, f.name)[index] for f in fields(self)))
 
+    @property
+    def upper_ends(self) -> FloatArray:
+        """Each cable's upper end (N, m, 3) in the base frame (m): its drawing point, or
+        where it leaves its guide pulley."""
+        return (self.position[:, None, :] + self.arms + self.x[..., None] * self.e_h
+                + self.z[..., None] * E_Z)
+
 
 def cable_planes(robot: CableRobot, poses: NDArray) -> CablePlanes:
     """Planes of the cables of a batch of poses.

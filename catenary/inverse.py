@@ -128,6 +128,13 @@ class InverseKinematicsResult:
     problem : TensionProblem or None
         The tension problem the tensions answer (objective, weights, bounds), or None
         where it is not known.
+    exit_points : ndarray, shape (N, m, 3), or None
+        Over guide pulleys: where each cable leaves its wheel (m, base frame; its
+        drawing point without a pulley), tangent to its catenary; None for a robot
+        without pulleys.
+    wrap_angles : ndarray, shape (N, m), or None
+        Over guide pulleys: the angle each cable wraps its wheel (rad; 0 without a
+        pulley, NaN where unsettled); None for a robot without pulleys.
     """
 
     lengths: FloatArray
@@ -143,6 +150,8 @@ class InverseKinematicsResult:
     model: str
     solve_time: float
     problem: TensionProblem | None = None
+    exit_points: FloatArray | None = None
+    wrap_angles: FloatArray | None = None
 
     @property
     def sag(self) -> FloatArray:
@@ -365,8 +374,11 @@ def _over_pulleys(robot: CableRobot, p: FloatArray, model: str, straight: Tensio
                      time.perf_counter() - start, as_problem(objective))
     if model == "coupled":
         _certify(result, robot, p, objective, wrench, w)
+    failed = ~np.isfinite(result.lengths)
     return replace(result, lengths=result.lengths + sag.arcs(result.tensions, EA),
-                   straight_lengths=robot.inverse_kinematics(p)[0])
+                   straight_lengths=robot.inverse_kinematics(p)[0],
+                   exit_points=np.where(failed[..., None], np.nan, sag.planes.upper_ends),
+                   wrap_angles=np.where(failed, np.nan, sag.wrap))
 
 
 def _fixed_point_start(robot: CableRobot, p: FloatArray, straight: TensionSolution,

@@ -33,7 +33,7 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from tension_opt.kernels.geometry import rotation
+from tension_opt.kernels.geometry import arm_and_vector, platform_position, rotation
 
 from .solve.kernels import CONVERGED as CATENARY_OK
 from .solve.kernels import solve_length_one, spans_one
@@ -71,17 +71,6 @@ BLOCK = 256
 #: Settings of the taut catenaries of given tensions (those of
 #: :func:`catenary.solve_length`, which the reference calls).
 _CAT_RTOL, _CAT_ITER = 1e-9, 30
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def platform_position(kind: int, pose: NDArray) -> tuple[float, float, float]:
-    """Reference point of a pose in the base frame (m), by the kind codes of
-    :data:`tension_opt.kernels.geometry.KIND_CODES`: ``(x, y, z)``, ``(x, 0, z)`` for
-    the vertical-plane point, ``(x, y, 0)`` for the planar platform."""
-    x = pose[0]
-    y = pose[1] if kind != 1 else 0.0
-    z = pose[1] if kind == 1 else (0.0 if kind == 2 else pose[2])
-    return x, y, z
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -246,18 +235,13 @@ def stiffness_pose(
             missing = missing or not given[i] == given[i]
         if missing and model != STRAIGHT:
             return NOT_RUN, np.nan  # no catenaries (straight cables each have theirs)
-    R00, R01, R02, R10, R11, R12, R20, R21, R22 = rotation(kind, pose)
-    px, py, pz = platform_position(kind, pose)
+    R = rotation(kind, pose)
+    R00, R01, R02, R10, R11, R12, R20, R21, R22 = R
+    position = platform_position(kind, pose)
     K6[:, :] = 0.0
     W0 = W1 = W2 = W3 = W4 = W5 = 0.0
     for i in range(m):
-        a0, a1, a2 = attachments[i, 0], attachments[i, 1], attachments[i, 2]
-        r0 = R00 * a0 + R01 * a1 + R02 * a2
-        r1 = R10 * a0 + R11 * a1 + R12 * a2
-        r2 = R20 * a0 + R21 * a1 + R22 * a2
-        v0 = anchors[i, 0] - (px + r0)
-        v1 = anchors[i, 1] - (py + r1)
-        v2 = anchors[i, 2] - (pz + r2)
+        r0, r1, r2, v0, v1, v2 = arm_and_vector(R, position, anchors, attachments, i)
         if model == STRAIGHT:
             L = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
             if not (L > zero_length and L < np.inf):

@@ -29,7 +29,14 @@ from tension_opt.errors import TensionOptError
 from tension_opt.kernels.arrays import writable
 from tension_opt.kernels.closed_form import solve_one
 from tension_opt.kernels.first_use import announce
-from tension_opt.kernels.geometry import GEOMETRY_OK, geometry_into, kind_code, rotation
+from tension_opt.kernels.geometry import (
+    GEOMETRY_OK,
+    arm_and_vector,
+    geometry_into,
+    kind_code,
+    platform_position,
+    rotation,
+)
 from tension_opt.kernels.launch import entry_point
 from tension_opt.problem.form import TensionProblem, as_problem
 from tension_opt.status import Status
@@ -63,29 +70,19 @@ def thesis_pose(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
     """
     m = anchors.shape[0]
     n = wrench.size
-    R00, R01, R02, R10, R11, R12, R20, R21, R22 = rotation(kind, pose)
+    R = rotation(kind, pose)
     A = work[:n * m].reshape((n, m))
     b = work[n * m:n * m + n]
     total = work[n * m + n:n * m + 2 * n]
     if geometry_into(kind, anchors, attachments, com, weight, 0.0, pose, wrench, A,
                      b) != GEOMETRY_OK:
         return False, np.nan
-    px, py, pz = pose[0], pose[1], pose[2]
-    if kind == 1:
-        py, pz = 0.0, pose[1]
-    elif kind == 2:
-        pz = 0.0
+    position = platform_position(kind, pose)
     sol = work[n * m + 2 * n:n * m + 2 * n + 5]
     for k in range(n):
         total[k] = 0.0
     for i in range(m):
-        a0, a1, a2 = attachments[i, 0], attachments[i, 1], attachments[i, 2]
-        r0 = R00 * a0 + R01 * a1 + R02 * a2
-        r1 = R10 * a0 + R11 * a1 + R12 * a2
-        r2 = R20 * a0 + R21 * a1 + R22 * a2
-        d0 = anchors[i, 0] - (px + r0)
-        d1 = anchors[i, 1] - (py + r1)
-        d2 = anchors[i, 2] - (pz + r2)
+        r0, r1, r2, d0, d1, d2 = arm_and_vector(R, position, anchors, attachments, i)
         x = math.hypot(d0, d1)
         if solve_length_one(True, x, d2, tensions[i], w, inv_EA, 1e-9, 30, sol) != CONVERGED:
             return False, np.nan

@@ -197,7 +197,7 @@ def _prepare(
 ) -> tuple[list[RobotScene], FloatArray, bool, str, float, dict[str, Any]]:
     """Checked arguments, the solved scenes of an animation's frames, their times,
     whether those are times, the view, its ``z_scale`` and the resolved options."""
-    check_robot(robot)
+    check_robot(robot, pulleys=True)
     model = frame_args["model"]
     check_model(model)
     view = check_view(frame_args["view"], robot)

@@ -158,6 +158,7 @@ class SceneArtists:
     references: list[Any] = field(default_factory=list)
     platform: Any = None
     anchors: Any = None
+    wheels: list[tuple[int, Any]] = field(default_factory=list)
 
     def colour(self, scene: RobotScene, i: int) -> Any:
         """The colour of cable ``i``: its tension's, or its state's fixed colour."""
@@ -177,6 +178,9 @@ class SceneArtists:
         if reference is not None:
             for i, line in enumerate(self.references):
                 _set_line(line, _project(reference.curves[i], self.view))
+        for i, line in self.wheels:  # the pulleys swivel with the pose
+            assert scene.wheels is not None
+            _set_line(line, _project(scene.wheels[i], self.view))
         vertices, triangles = scene.platform(self.platform_size)
         if self.view == "3d":
             self.platform.set_verts(list(vertices[triangles]))
@@ -207,7 +211,8 @@ def draw_scene(
 
     Each cable is one line whose ``gid`` is ``"cable <i>"`` (i from 0), coloured by its
     tension at the drawing point, with a hidden red halo (``"halo <i>"``) shown while
-    it is outside its bounds; the reference model's cables are ``"reference <i>"``.
+    it is outside its bounds; the reference model's cables are ``"reference <i>"``, and
+    the wheel of a cable's guide pulley ``"pulley <i>"``.
     """
     from matplotlib.patches import Polygon
 
@@ -232,6 +237,12 @@ def draw_scene(
             (line,) = ax.plot(*_project(reference.curves[i], view), zorder=2, **REFERENCE_STYLE)
             line.set_gid(f"reference {i}")
             art.references.append(line)
+    if scene.wheels is not None:
+        for wheel in np.flatnonzero(np.isfinite(scene.wheels[:, 0, 0])).tolist():
+            (line,) = ax.plot(*_project(scene.wheels[wheel], view), color="0.25", lw=1.0,
+                              zorder=4)
+            line.set_gid(f"pulley {wheel}")
+            art.wheels.append((wheel, line))
     vertices, triangles = scene.platform(platform_size)
     if view == "3d":
         from mpl_toolkits.mplot3d.art3d import Poly3DCollection

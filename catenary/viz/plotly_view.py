@@ -78,7 +78,7 @@ def cable_traces(
     """One line trace per cable of ``scene``, coloured by tension (or its state's colour).
 
     ``reference``: thin grey dotted lines named after the model (``"straight model"``),
-    without hover.
+    without hover. Then, over guide pulleys, one thin dark line per wheel.
     """
     traces = []
     colours = colour_map(cmap)
@@ -116,6 +116,20 @@ def cable_traces(
                 hovertemplate="%{text}<extra></extra>",
             )
         )
+    if scene.wheels is not None and not reference:
+        shown = np.flatnonzero(np.isfinite(scene.wheels[:, 0, 0])).tolist()
+        for j, wheel in enumerate(shown):
+            traces.append(
+                scatter(
+                    **_coords(scene.wheels[wheel], view),
+                    mode="lines",
+                    line={"color": "rgb(60,60,60)", "width": 2 if view == "3d" else 1},
+                    name="guide pulleys",
+                    hoverinfo="skip",
+                    showlegend=j == 0,
+                    legendgroup="pulleys",
+                )
+            )
     return traces
 
 

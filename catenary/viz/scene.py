@@ -10,7 +10,10 @@ its bounds, or with no tensions at all). The matplotlib, plotly and animation vi
 
 A catenary curve runs from the attachment point (end A) to the drawing point (end B)
 in the cable's vertical plane (:mod:`catenary.geometry`), sampled by
-:func:`catenary.profile` from the catenary's own forces and unstretched length.
+:func:`catenary.profile` from the catenary's own forces and unstretched length. Over a
+guide pulley (:mod:`catenary.pulleys`) the free span runs to where the cable leaves its
+wheel, tangent to it, and the curve goes on along the wrapped arc to the drawing point;
+the scene also holds each wheel's outline.
 """
 
 from __future__ import annotations
@@ -27,9 +30,17 @@ from tension_opt.status import Status
 
 from ..elastic import axial_compliance, evaluate, profile
 from ..errors import InvalidCableError
-from ..geometry import E_Z, CablePlanes, cable_planes, check_robot, extreme_tensions
+from ..geometry import (
+    E_Z,
+    CablePlanes,
+    check_robot,
+    extreme_tensions,
+    planes_along,
+)
 from ..geometry import taut_catenaries as solve_taut
-from ..inverse import inverse_kinematics
+from ..inverse import InverseKinematicsResult, inverse_kinematics
+from ..pulleys import settle_wraps
+from .wheels import Wheels, straight_spans, wheels_at
 
 __all__ = [
     "MODELS",
@@ -74,8 +85,11 @@ class RobotScene:
         Attachment points on the platform (m).
     curves : ndarray, shape (m, k, 3)
         Points along each cable from its attachment point to its drawing point (m);
-        a catenary sampled at ``k`` points of equal unstretched arc length, or the
-        straight chord (slack and infeasible cables, the straight model).
+        a catenary sampled at ``samples`` points of equal unstretched arc length, or the
+        straight chord (slack and infeasible cables, the straight model). Over guide
+        pulleys the free span ends where the cable leaves its wheel, and
+        :data:`catenary.viz.wheels.ARC_SAMPLES` more points follow the wrapped arc to
+        the drawing point (repeats of the drawing point for a cable without a pulley).
     tensions : ndarray, shape (m,)
         Tension at the drawing point (N); NaN where the pose has none.
     tensions_platform : ndarray, shape (m,)
@@ -83,12 +97,15 @@ class RobotScene:
     lowest, highest : ndarray, shape (m,)
         Lowest and highest tension along each cable (N).
     lengths : ndarray, shape (m,)
-        Unstretched cable lengths (m); the chord for the straight model.
+        Unstretched cable lengths (m), the wrapped arc included; the straight length
+        for the straight model.
     straight_lengths : ndarray, shape (m,)
-        Chord from attachment to drawing point (m).
+        Chord from attachment to drawing point (m); over a pulley the straight cable's
+        length, its wrapped arc included (``robot.inverse_kinematics``).
     sag : ndarray, shape (m,)
         Largest vertical drop of the cable below its chord (m), from the catenary's own
-        forces (:func:`sag_below_chord`); 0 for straight cables.
+        forces (:func:`sag_below_chord`); 0 for straight cables. Over a pulley, of the
+        free span below its own chord.
     closure : ndarray, shape (m,)
         Distance (m) between the sampled curve's end and the drawing point before the
         curve is closed onto it (the catenary solver's residual; 0 when straight).
@@ -97,6 +114,13 @@ class RobotScene:
     status : str
         The pose's status from the solve (``"converged"``, ``"optimal"``,
         ``"infeasible"``, ...).
+    exits : ndarray, shape (m, 3)
+        Where each free span ends (m): the drawing point, or where the cable leaves
+        its guide pulley.
+    wheels : ndarray, shape (m, k, 3), or None
+        The outline of each guide pulley's wheel, swivelled to the pose, at
+        :data:`catenary.viz.wheels.WHEEL_SAMPLES` points (NaN for a cable without
+        one); None for a robot without pulleys.
     """
 
     robot: CableRobot
@@ -115,6 +139,8 @@ class RobotScene:
     closure: FloatArray
     state: NDArray[np.str_]
     status: str
+    exits: FloatArray
+    wheels: FloatArray | None = None
 
     @property
     def m(self) -> int:
@@ -212,32 +238,54 @@ def robot_scenes(
     tension_opt.errors.InvalidInputError
         For poses of the wrong shape or with NaN.
     """
-    check_robot(robot)
+    check_robot(robot, pulleys=True)
     model = check_model(model)  # type: ignore[assignment]
     if isinstance(samples, bool) or not isinstance(samples, int | np.integer) or samples < 2:
         raise InvalidCableError(
             f"samples must be an integer >= 2 (points along a cable); got samples={samples!r}"
         )
     p = robot.as_poses(poses)
-    planes = cable_planes(robot, p)
+    planes = straight_spans(robot, p)
     sagging = (
         model != "straight"
         and robot.cable is not None
         and (robot.cable.weight_per_length(robot.g) > 0 or np.isfinite(robot.cable.EA))
     )
     solve = dict(wrench=wrench, objective=objective, backend=backend, **options)
+    planes, cables, status = _batch_cables(robot, p, planes, tensions, model, sagging, solve)
+    wheels = wheels_at(robot, planes)
+    return [_scene(robot, p, planes, cables, status, model, samples, k, wheels)
+            for k in range(len(p))]
+
+
+def _batch_cables(robot: CableRobot, p: FloatArray, planes: CablePlanes,
+                  tensions: ArrayLike | None, model: str, sagging: bool,
+                  solve: dict[str, Any]) -> tuple[CablePlanes, _Cables, NDArray[np.str_]]:
+    """The free spans' planes, the cables and each pose's status of a batch: catenaries
+    carrying the given ``tensions``, the sag model's own, or straight cables with the
+    distribution's tensions (``planes``: the straight free spans)."""
     if tensions is not None:
         T = _check_tensions(tensions, len(p), robot.m)
         status = np.where(np.isnan(T).any(axis=1), Status.INFEASIBLE, Status.OPTIMAL)
-        cables = _catenaries_of(robot, planes, T, sagging)
-    elif sagging:
-        cables, status = _solved_catenaries(robot, p, model, solve)
-    else:
-        res = tension_opt.distribute(robot, p, objective, backend, wrench=wrench, **options)
-        status = np.asarray(res.status, dtype=str)
-        T = np.where(res.success[:, None], res.tensions, np.nan)
-        cables = _catenaries_of(robot, planes, T, False)
-    return [_scene(robot, p, planes, cables, status, model, samples, k) for k in range(len(p))]
+        if robot.has_pulleys and sagging:  # the wheels turned to the catenaries' ends
+            w, EA = _cable_constants(robot)
+            given = np.asarray(np.isfinite(T).all(axis=1), dtype=bool)
+            planes = settle_wraps(robot, p, np.nan_to_num(T), given, w, EA).planes
+        return planes, _catenaries_of(robot, planes, T, sagging), status
+    if sagging:
+        res = _solved(robot, p, model, solve)
+        if res.exit_points is not None:  # the wheels as the solve left them
+            ends = np.where(np.isfinite(res.exit_points), res.exit_points, planes.upper_ends)
+            planes = planes_along(planes.position, planes.rotation, planes.arms,
+                                  ends - (planes.position[:, None] + planes.arms))
+        cables = _solved_catenaries(robot, res, wheels_at(robot, planes))
+        return planes, cables, np.asarray(res.status, dtype=str)
+    options = {k: v for k, v in solve.items() if k not in ("objective", "backend", "wrench")}
+    straight = tension_opt.distribute(robot, p, solve["objective"], solve["backend"],
+                                      wrench=solve["wrench"], **options)
+    T = np.where(straight.success[:, None], straight.tensions, np.nan)
+    return planes, _catenaries_of(robot, planes, T, False), np.asarray(straight.status,
+                                                                        dtype=str)
 
 
 def robot_scene(
@@ -254,7 +302,7 @@ def robot_scene(
     InvalidCableError
         If ``pose`` holds more than one pose, and as :func:`robot_scenes`.
     """
-    check_robot(robot)
+    check_robot(robot, pulleys=True)
     p = robot.as_poses(pose)
     if len(p) != 1:
         raise InvalidCableError(
@@ -304,28 +352,35 @@ def _catenaries_of(robot: CableRobot, planes: CablePlanes, T: FloatArray, saggin
     return _Cables(cat.H, cat.V_A, cat.L0, T, found, found | (np.isfinite(T) & ~pulled), w, EA)
 
 
-def _solved_catenaries(
-    robot: CableRobot, poses: FloatArray, model: str, solve: dict[str, Any]
-) -> tuple[_Cables, NDArray[np.str_]]:
-    """The sag model's own catenaries of a batch, and each pose's status."""
-    w, EA = _cable_constants(robot)
+def _solved(robot: CableRobot, poses: FloatArray, model: str, solve: dict[str, Any]
+            ) -> InverseKinematicsResult:
+    """The sag model's own solution of a batch."""
     options = {k: v for k, v in solve.items() if k not in ("objective", "backend", "wrench")}
     sag_model: Literal["thesis", "coupled"] = "thesis" if model == "thesis" else "coupled"
-    res = inverse_kinematics(
+    return inverse_kinematics(
         robot, poses, sag_model, solve["objective"], solve["backend"], solve["wrench"], **options
     )
+
+
+def _solved_catenaries(robot: CableRobot, res: InverseKinematicsResult,
+                       wheels: Wheels | None) -> _Cables:
+    """The catenaries of a sag model's solution; over pulleys, of the free spans (the
+    wrapped arcs' unstretched lengths taken off)."""
+    w, EA = _cable_constants(robot)
     ok = res.success[:, None] & np.isfinite(res.lengths)
-    cables = _Cables(
+    free = res.lengths
+    if wheels is not None:
+        free = res.lengths - wheels.arcs(res.tensions, EA)
+    return _Cables(
         res.horizontal_tensions,
         res.platform_forces[..., 2],
-        res.lengths,
+        free,
         np.where(ok, res.tensions, np.nan),
         ok,
         ok,
         w,
         EA,
     )
-    return cables, np.asarray(res.status, dtype=str)
 
 
 def sag_below_chord(
@@ -385,7 +440,8 @@ def _curves(
     anchors: FloatArray,
     samples: int,
 ) -> tuple[FloatArray, FloatArray]:
-    """Points along the cables of pose ``k`` (m, samples, 3) and each curve's closure (m)."""
+    """Points along the free spans of pose ``k`` (m, samples, 3), from the attachment
+    points to ``anchors`` (their upper ends), and each curve's closure (m)."""
     t = np.linspace(0.0, 1.0, samples)
     chord = anchors - attach
     points = attach[:, None, :] + t[None, :, None] * chord[:, None, :]
@@ -433,11 +489,19 @@ def _scene(
     model: str,
     samples: int,
     k: int,
+    wheels: Wheels | None,
 ) -> RobotScene:
-    """The scene of pose ``k`` of a solved batch."""
+    """The scene of pose ``k`` of a solved batch (over guide pulleys, ``wheels``)."""
     attach = planes.position[k] + planes.arms[k]
     anchors = np.asarray(robot.anchors, dtype=float)
-    curves, closure = _curves(planes, k, cables, attach, anchors, samples)
+    exits = planes.upper_ends[k]
+    curves, closure = _curves(planes, k, cables, attach, exits, samples)
+    arcs = np.zeros(robot.m)
+    straight = planes.chord[k].copy()
+    if wheels is not None:  # the wrapped arcs follow the free spans
+        curves = np.concatenate([curves, wheels.arc_points(k)[:, 1:]], axis=1)
+        arcs = wheels.arcs(np.nan_to_num(cables.tensions), cables.EA)[k]
+        straight = robot.cable_geometry(poses[k:k + 1], check=False).total_lengths[0]
     curved = cables.curved[k]
     with np.errstate(invalid="ignore"):
         V_B = cables.V_A[k] + cables.w * cables.L0[k]
@@ -452,7 +516,7 @@ def _scene(
         ),
         0.0,
     )
-    lengths = np.where(cables.found[k] & curved, cables.L0[k], planes.chord[k])
+    lengths = np.where(cables.found[k] & curved, cables.L0[k], planes.chord[k]) + arcs
     return RobotScene(
         robot,
         poses[k].copy(),
@@ -465,11 +529,13 @@ def _scene(
         lowest,
         highest,
         lengths,
-        planes.chord[k].copy(),
+        straight,
         sag,
         closure,
         _states(robot, cables, k, lowest, highest),
         str(status[k]),
+        exits,
+        None if wheels is None else wheels.outlines(k),
     )
 
 

@@ -163,7 +163,7 @@ def _scenes(
 ) -> tuple[RobotScene, RobotScene | None, str, float, dict[str, Any]]:
     """The checked arguments of :func:`plot_robot`: its scene, the reference model's, the
     view, ``z_scale`` and the resolved options (the default title set)."""
-    check_robot(robot)
+    check_robot(robot, pulleys=True)
     check_model(model)
     if reference is not None:
         check_model(reference)

@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from tension_opt.kernels.geometry import rotation
+from tension_opt.kernels.geometry import arm_and_vector, platform_position, rotation
 
 __all__ = ["point_column", "pose_terms"]
 
@@ -83,33 +83,14 @@ def _left_coefficients(kind: int, pose: NDArray) -> tuple[float, float]:
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _platform_position(kind: int, pose: NDArray) -> tuple[float, float, float]:
-    """The reference point's position (m) of a pose of the kind."""
-    px, py, pz = pose[0], pose[1] if kind != 1 else 0.0, 0.0
-    if kind == 0 or kind == 3:
-        pz = pose[2]
-    elif kind == 1:
-        pz = pose[1]
-    if pose.size < 0:  # never: the pose read after the branches
-        px = np.nan
-    return px, py, pz
-
-
-@njit(cache=True, error_model="numpy", inline="always")
 def point_column(kind: int, anchors: NDArray, attachments: NDArray, pose: NDArray,
                  R: tuple, i: int, c: int, attachment: bool, out: NDArray) -> None:
     """``out`` (n,): the derivative of column ``i`` of the structure matrix by coordinate
     ``c`` of cable ``i``'s drawing point (base frame) or, with ``attachment``, of its
     attachment (platform frame), at a pose whose rotation is ``R`` (row by row)."""
     R00, R01, R02, R10, R11, R12, R20, R21, R22 = R
-    px, py, pz = _platform_position(kind, pose)
-    a0, a1, a2 = attachments[i, 0], attachments[i, 1], attachments[i, 2]
-    r0 = R00 * a0 + R01 * a1 + R02 * a2
-    r1 = R10 * a0 + R11 * a1 + R12 * a2
-    r2 = R20 * a0 + R21 * a1 + R22 * a2
-    v0 = anchors[i, 0] - (px + r0)
-    v1 = anchors[i, 1] - (py + r1)
-    v2 = anchors[i, 2] - (pz + r2)
+    r0, r1, r2, v0, v1, v2 = arm_and_vector(R, platform_position(kind, pose), anchors,
+                                            attachments, i)
     L = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
     u0, u1, u2 = v0 / L, v1 / L, v2 / L
     dr0 = dr1 = dr2 = 0.0
@@ -139,8 +120,9 @@ def pose_terms(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
     (m) and ``db[:, j]`` (n), the derivatives of the columns and of the required
     wrench ``b = -(w_g + w)``."""
     n, m = dAT.shape[0], anchors.shape[0]
-    R00, R01, R02, R10, R11, R12, R20, R21, R22 = rotation(kind, pose)
-    px, py, pz = _platform_position(kind, pose)
+    R = rotation(kind, pose)
+    R00, R01, R02, R10, R11, R12, R20, R21, R22 = R
+    position = platform_position(kind, pose)
     c0 = R00 * com[0] + R01 * com[1] + R02 * com[2]
     c1 = R10 * com[0] + R11 * com[1] + R12 * com[2]
     c2 = R20 * com[0] + R21 * com[1] + R22 * com[2]
@@ -149,13 +131,7 @@ def pose_terms(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
         for j in range(n):
             dAT[k, j] = 0.0
     for i in range(m):  # each cable's vector once, then its column's step by each j
-        a0, a1, a2 = attachments[i, 0], attachments[i, 1], attachments[i, 2]
-        r0 = R00 * a0 + R01 * a1 + R02 * a2
-        r1 = R10 * a0 + R11 * a1 + R12 * a2
-        r2 = R20 * a0 + R21 * a1 + R22 * a2
-        v0 = anchors[i, 0] - (px + r0)
-        v1 = anchors[i, 1] - (py + r1)
-        v2 = anchors[i, 2] - (pz + r2)
+        r0, r1, r2, v0, v1, v2 = arm_and_vector(R, position, anchors, attachments, i)
         L = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
         u0, u1, u2 = v0 / L, v1 / L, v2 / L
         for j in range(n):

@@ -25,11 +25,13 @@ __all__ = [
     "GEOMETRY_OK",
     "GEOMETRY_OVERFLOW",
     "KIND_CODES",
+    "arm_and_vector",
     "compiled_kind",
     "geometry_batch",
     "geometry_into",
     "geometry_serial",
     "kind_code",
+    "platform_position",
     "robot_geometry",
     "robot_kind_code",
     "rotation",
@@ -90,10 +92,28 @@ def rotation(kind: int, pose: NDArray) -> tuple[float, float, float, float, floa
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _position(kind: int, pose: NDArray) -> tuple[float, float, float]:
+def platform_position(kind: int, pose: NDArray) -> tuple[float, float, float]:
+    """Reference point of a pose in the base frame (m): ``(x, y, z)``, ``(x, 0, z)`` for
+    the vertical-plane point, ``(x, y, 0)`` for the planar platform."""
     y = pose[1] if kind != 1 else 0.0
     z = pose[1] if kind == 1 else (0.0 if kind == 2 else pose[2])
     return pose[0], y, z  # pose read last outside the branches (tension_opt.kernels)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def arm_and_vector(R: tuple, position: tuple, anchors: NDArray, attachments: NDArray,
+                   i: int) -> tuple[float, float, float, float, float, float]:
+    """Cable ``i``'s arm ``r = R a_i`` and vector ``v = A_i - (p + r)`` (attachment to
+    drawing point) at a pose of rotation ``R`` (row by row) and ``position``."""
+    R00, R01, R02, R10, R11, R12, R20, R21, R22 = R
+    a0, a1, a2 = attachments[i, 0], attachments[i, 1], attachments[i, 2]
+    r0 = R00 * a0 + R01 * a1 + R02 * a2
+    r1 = R10 * a0 + R11 * a1 + R12 * a2
+    r2 = R20 * a0 + R21 * a1 + R22 * a2
+    v0 = anchors[i, 0] - (position[0] + r0)
+    v1 = anchors[i, 1] - (position[1] + r1)
+    v2 = anchors[i, 2] - (position[2] + r2)
+    return r0, r1, r2, v0, v1, v2
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -146,17 +166,12 @@ def geometry_into(kind: int, anchors: NDArray, attachments: NDArray, com: NDArra
         :data:`GEOMETRY_OVERFLOW` (cable lengths, or the wrench added to gravity,
         beyond the float range).
     """
-    R00, R01, R02, R10, R11, R12, R20, R21, R22 = rotation(kind, pose)
-    px, py, pz = _position(kind, pose)
+    R = rotation(kind, pose)
+    R00, R01, R02, R10, R11, R12 = R[:6]
+    position = platform_position(kind, pose)
     code = GEOMETRY_OK
     for i in range(anchors.shape[0]):
-        a0, a1, a2 = attachments[i, 0], attachments[i, 1], attachments[i, 2]
-        r0 = R00 * a0 + R01 * a1 + R02 * a2
-        r1 = R10 * a0 + R11 * a1 + R12 * a2
-        r2 = R20 * a0 + R21 * a1 + R22 * a2
-        v0 = anchors[i, 0] - (px + r0)
-        v1 = anchors[i, 1] - (py + r1)
-        v2 = anchors[i, 2] - (pz + r2)
+        r0, r1, r2, v0, v1, v2 = arm_and_vector(R, position, anchors, attachments, i)
         length = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
         if not math.isfinite(length):
             code = GEOMETRY_OVERFLOW

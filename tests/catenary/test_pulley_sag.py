@@ -205,3 +205,101 @@ def test_sagging_cable_clearance_over_wheels(model):
             gap = np.linalg.norm(pts[p, i][:, None] - pts[p, j][None], axis=-1).min()
             assert res.distances[p, q] <= gap + 1e-9
             assert res.lower_bound[p, q] <= gap + 1e-9
+
+
+def _on_wheel_and_tangent(robot: to.CableRobot, exits: np.ndarray, H: np.ndarray,
+                          V_B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How far each exit point (N, m, 3) is off its wheel (m), and the cosine between the
+    catenary's direction there, ``(H e - V_B e_z) / T``, and the wheel's radius."""
+    A = np.asarray(robot.anchors, dtype=float)
+    axes = np.array([np.asarray(q.axis, dtype=float) for q in robot.pulleys])
+    r = np.array([q.radius for q in robot.pulleys])
+    d = exits - A
+    along = np.einsum("nki,ki->nk", d, axes)
+    perp = d - along[..., None] * axes
+    size = np.linalg.norm(perp, axis=-1)
+    centre = A + r[:, None] * perp / size[..., None]
+    off = np.abs(np.linalg.norm(exits - centre, axis=-1) - r)
+    e = np.zeros_like(exits)
+    e[..., :2] = -d[..., :2] / np.linalg.norm(d[..., :2], axis=-1)[..., None]  # towards B
+    # The chord's horizontal direction: from the exit point towards the attachment.
+    B = robot.cable_geometry(POSES).attachment_points
+    e[..., :2] = (B - exits)[..., :2]
+    e /= np.linalg.norm(e, axis=-1, keepdims=True)
+    c = (H[..., None] * e - V_B[..., None] * np.array([0.0, 0.0, 1.0]))
+    c /= np.linalg.norm(c, axis=-1, keepdims=True)
+    radius = (exits - centre) / r[:, None]
+    return off, np.abs(np.einsum("nki,nki->nk", c, radius))
+
+
+@pytest.mark.parametrize("model", ["thesis", "coupled"])
+def test_the_result_says_where_each_cable_leaves_its_wheel(model):
+    robot = towers()
+    res = catenary.inverse_kinematics(robot, POSES, model=model)
+    assert res.exit_points.shape == (len(POSES), robot.m, 3)
+    V_B = np.sqrt(res.tensions**2 - res.horizontal_tensions**2)  # the upper end pulls up
+    off, cos = _on_wheel_and_tangent(robot, res.exit_points, res.horizontal_tensions, V_B)
+    assert off.max() < 1e-12 and cos.max() < 1e-9
+    # The wrap angles are the wheels' own: the arc on the wheel is the length's share.
+    w, EA = robot.cable.weight_per_length(robot.g), robot.cable.EA
+    free = catenary.solve_length(*_spans(robot, res.exit_points), res.tensions, w, EA, "B")
+    arcs = 0.3 * res.wrap_angles / (1.0 + res.tensions / EA)
+    np.testing.assert_allclose(free.L0 + arcs, res.lengths, rtol=1e-12)
+    plain = catenary.inverse_kinematics(to.presets.algae_harvester(), POSES, model=model)
+    assert plain.exit_points is None and plain.wrap_angles is None
+
+
+def _spans(robot: to.CableRobot, exits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Horizontal span and height of each exit point over its attachment point (m)."""
+    d = exits - robot.cable_geometry(POSES).attachment_points
+    return np.hypot(d[..., 0], d[..., 1]), d[..., 2]
+
+
+@pytest.mark.parametrize("model", ["coupled", "thesis", "straight"])
+def test_a_view_draws_the_free_span_the_wrapped_arc_and_the_wheel(model):
+    from catenary.viz import robot_scenes
+    from catenary.viz.wheels import ARC_SAMPLES
+
+    robot = towers()
+    scenes = robot_scenes(robot, POSES, model=model, samples=61)
+    if model != "straight":
+        res = catenary.inverse_kinematics(robot, POSES, model=model)
+    for k, scene in enumerate(scenes):
+        assert scene.curves.shape == (robot.m, 61 + ARC_SAMPLES - 1, 3)
+        np.testing.assert_allclose(scene.curves[:, 0], scene.attachments, atol=1e-12)
+        np.testing.assert_allclose(scene.curves[:, -1], scene.anchors, atol=1e-12)
+        np.testing.assert_allclose(scene.curves[:, 60], scene.exits, atol=1e-9)
+        # The arc and the outline lie on the wheel: a circle of radius 0.3 about its
+        # centre, in the plane of the axis (vertical here) and the wheel's direction.
+        centre = scene.wheels[:, :-1].mean(axis=1, keepdims=True)  # the outline closes
+        for points in (scene.curves[:, 60:], scene.wheels):
+            np.testing.assert_allclose(np.linalg.norm(points - centre, axis=-1), 0.3,
+                                       atol=1e-9)
+        if model == "straight":
+            np.testing.assert_allclose(scene.lengths, robot.inverse_kinematics(POSES)[0][k],
+                                       rtol=1e-12)
+        else:
+            np.testing.assert_allclose(scene.lengths, res.lengths[k], rtol=1e-12)
+            np.testing.assert_allclose(scene.exits, res.exit_points[k], atol=1e-9)
+            # The same cables drawn from the given tensions.
+            again = robot_scenes(robot, POSES[k], res.tensions[k], model, samples=61)[0]
+            np.testing.assert_allclose(again.lengths, scene.lengths, rtol=1e-9)
+            np.testing.assert_allclose(again.curves, scene.curves, atol=1e-6)
+
+
+def test_a_pulley_robot_is_drawn_by_matplotlib_and_plotly():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from catenary.viz import plot_robot
+
+    robot = towers()
+    fig = plot_robot(robot, POSES[1], view="3d")
+    gids = {a.get_gid() for a in fig.axes[0].get_children()}
+    assert {f"pulley {i}" for i in range(4)} <= gids
+    plt.close(fig)
+    pytest.importorskip("plotly")
+    fig = plot_robot(robot, POSES[1], engine="plotly")
+    assert sum(t.name == "guide pulleys" for t in fig.data) == 4
