@@ -35,7 +35,7 @@ from tension_opt.robot import CableRobot
 from tension_opt.status import STATUS_DTYPE, StatusCodes, status_codes
 from tension_opt.tolerances import accuracy_target
 
-__all__ = ["CertifiedBatch", "CertifiedPlan", "certified_plan"]
+__all__ = ["CertifiedBatch", "CertifiedPlan", "certified_plan", "plan_of"]
 
 
 @dataclass(frozen=True)
@@ -70,8 +70,19 @@ def certified_plan(robot: CableRobot, problem: TensionProblem, backend: Any,
         chosen = route(backend, form).backend
     except TensionOptError:
         return None
-    if not (isinstance(chosen, ClosedFormBackend) and chosen.compiled):
+    return plan_of(robot, problem, chosen, form, accuracy)
+
+
+def plan_of(robot: CableRobot, problem: TensionProblem, chosen: Any, form: Any,
+            accuracy: object = None) -> CertifiedPlan | None:
+    """:func:`certified_plan` where the batch's ``form`` (or one of a stand-in pose) is
+    at hand and routed to the backend ``chosen``."""
+    from tension_opt.kernels.geometry import compiled_kind
+
+    if problem.is_sequential or compiled_kind(robot) < 0 or not (
+            isinstance(chosen, ClosedFormBackend) and chosen.compiled):
         return None
+    n, m = robot.dof, robot.m
     # Exact to rounding, the closed form is judged at whatever target the call asks.
     target = accuracy_target(accuracy)
     data = pack_certified(robot, problem, target)

@@ -3,16 +3,23 @@
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tension_opt.backends.base import Backend, RawResult
+from tension_opt.backends.closed_form import ClosedFormBackend
 from tension_opt.backends.registry import route, solve_routed
 from tension_opt.backends.settings import check_options
 from tension_opt.checks import as_finite, as_float_array, whole_positive
-from tension_opt.distribution.certified import CertifiedBatch, certified_plan
+from tension_opt.distribution.certified import (
+    CertifiedBatch,
+    CertifiedPlan,
+    certified_plan,
+    plan_of,
+)
 from tension_opt.distribution.chunks import (
     CERTIFIED_TASK,
     Joined,
@@ -26,6 +33,7 @@ from tension_opt.distribution.chunks import (
 from tension_opt.distribution.sequence import solve_sequence
 from tension_opt.distribution.solution import TensionSolution, reusable, solution_of
 from tension_opt.errors import InvalidInputError
+from tension_opt.kernels import launch
 from tension_opt.problem.form import Objective, TensionProblem, as_problem
 from tension_opt.robot import CableRobot
 from tension_opt.status import Status, status_array
@@ -76,16 +84,16 @@ def distribute(
         solved in order, each against the solution of the pose before (the first
         against ``previous``, or unsmoothed when None).
     chunk_size : int, optional
-        Poses per chunk (default :data:`CHUNK_SIZE`). A larger batch is solved chunk
-        by chunk (geometry, problem and backend), so its memory is that of its
-        results plus one chunk's work; the results are those of one call on the whole
-        batch (a sequence carries on from one chunk to the next), save that
-        ``solution.form`` is None (the problems of every pose would outweigh the
-        tensions; :meth:`TensionProblem.standard_form` rebuilds those of any poses).
-        Independent poses on the compiled closed form take one compiled pass per chunk
-        (:mod:`tension_opt.distribution.certified`; sums in another order: objective and residual to
-        rounding), in tasks of :data:`~tension_opt.distribution.chunks.CERTIFIED_TASK` poses unless
-        ``chunk_size`` is given. Invalid input in a later chunk raises there.
+        Poses per chunk (default :data:`CHUNK_SIZE`). A larger batch is solved chunk by
+        chunk (geometry, problem and backend): its memory is its results plus one
+        chunk's work; the results are those of one call on the whole batch (a sequence
+        carries on from one chunk to the next), but ``solution.form`` is None
+        (:meth:`TensionProblem.standard_form` rebuilds those of any poses). Independent
+        poses on the compiled closed form take one compiled pass per chunk
+        (:mod:`tension_opt.distribution.certified`; objective and residual to rounding),
+        in tasks of :data:`~tension_opt.distribution.chunks.CERTIFIED_TASK` poses unless
+        ``chunk_size`` is given (without it, from 16 poses in one task, the form kept).
+        Invalid input in a later chunk raises there.
     out : TensionSolution, optional
         An earlier result on as many poses of the same robot and problem, whose arrays
         take this call's results (no page faults of fresh memory: 10^6 study poses in
@@ -110,24 +118,25 @@ def distribute(
     p = robot.as_poses(poses)
     prev = None if previous is None else as_float_array("previous", previous)
     if out is not None:
-        inputs = (p, wrench, prev, problem.t_min, problem.t_max, problem.reference)
-        out = reusable(out, len(p), robot.m, inputs)
+        out = reusable(out, len(p), robot.m,
+                       (p, wrench, prev, problem.t_min, problem.t_max, problem.reference))
     if len(p) <= size:
-        sol = _distribute_batch(robot, p, problem, backend, wrench, prev, options)[0]
+        sol = _distribute_batch(robot, p, problem, backend, wrench, prev, options, chunk_size
+                                is None and prev is None and len(p) >= launch.COMPILED_MIN)[0]
     else:
-        task = CERTIFIED_TASK if chunk_size is None else size
         sol = _distribute_chunks(robot, p, problem, backend, wrench, prev, options, size,
-                                 task, out)
+                                 CERTIFIED_TASK if chunk_size is None else size, out)
     return sol if out is None else sol.written_into(out)
 
 
 def _distribute_batch(robot: CableRobot, p: NDArray, problem: TensionProblem,
                       backend: str | Backend, wrench: ArrayLike | None,
-                      prev: NDArray | None, options: dict[str, Any]
-                      ) -> tuple[TensionSolution, NDArray | None]:
+                      prev: NDArray | None, options: dict[str, Any],
+                      certified: bool = False) -> tuple[TensionSolution, NDArray | None]:
     """:func:`distribute` of validated poses ``p`` (N, n) in one piece; also, for a
     sequence, the tensions the pose after it is smoothed against (its last optimal
-    ones, else ``prev``)."""
+    ones, else ``prev``). ``certified``: through the certified compiled pass where it
+    applies (:func:`_certified_whole`)."""
     t0 = time.perf_counter()
     A, b = robot.equilibrium(p, wrench)
     geometry_time = time.perf_counter() - t0
@@ -147,8 +156,41 @@ def _distribute_batch(robot: CableRobot, p: NDArray, problem: TensionProblem,
         solved = np.flatnonzero(raw.status == Status.OPTIMAL)
         last = raw.tensions[solved[-1]].copy() if len(solved) else prev
     else:
+        plan = None if not (certified and isinstance(chosen, ClosedFormBackend)) or any(
+            np.ndim(getattr(problem, name)) == 2 for name in ("t_min", "t_max", "reference")
+        ) else plan_of(robot, problem, chosen, form, options.get("accuracy"))
+        if plan is not None:
+            return _certified_whole(robot, p, problem, backend, wrench, options, plan,
+                                    form), last
         raw = solve_routed(way, form, options)
     return solution_of(form, raw, chosen, setup_time=geometry_time), last
+
+
+def _certified_whole(robot: CableRobot, p: NDArray, problem: TensionProblem,
+                     backend: str | Backend, wrench: ArrayLike | None,
+                     options: dict[str, Any], plan: CertifiedPlan, form: Any
+                     ) -> TensionSolution:
+    """A batch of one chunk of independent poses on the compiled closed form (from
+    :data:`~tension_opt.kernels.launch.COMPILED_MIN` poses: a rule on the call alone)
+    through the certified compiled pass in one task, its ``form`` kept as any batch of
+    one chunk keeps it: the same statuses, tensions, multipliers and certificate as the
+    chunk path, the objective and residuals to rounding, several times faster on a
+    point robot of four cables (whose poses the pass takes 16 at a time). The poses the
+    pass leaves go through the chunk path."""
+    w_rows = pose_rows("wrench", None if wrench is None else as_finite("wrench", wrench),
+                       len(p), robot.dof, scalar=False)
+
+    def leftovers(poses: slice | NDArray) -> TensionSolution:
+        try:
+            return _distribute_batch(robot, p[poses], problem, backend,
+                                     None if w_rows is None else w_rows(poses), None,
+                                     options)[0]
+        except InvalidInputError as error:
+            raise renumbered(error, poses) from None
+
+    batch = CertifiedBatch(plan, p, None if w_rows is None else w_rows(slice(None)), None)
+    return replace(certified_chunks(batch, len(p), CHUNK_SIZE, 1, leftovers, problem),
+                   form=form)
 
 
 def _distribute_chunks(robot: CableRobot, p: NDArray, problem: TensionProblem,

@@ -69,6 +69,7 @@ def test_certified_batch_writes_into_out(objective: str, threads: int,
     assert 0 < fresh.success.sum() < len(poses)
     earlier = to.distribute(robot, poses[::-1] * 0.9, objective, "scipy:highs"
                             if objective == "min_sum" else "closed_form")
+    del calls[12:]  # a batch of one chunk on the closed form takes the pass in one task
     if objective == "min_sum":
         assert earlier.iterations is not None and earlier.iterations.any()
     arrays = per_pose_arrays(earlier)
