@@ -3,7 +3,12 @@
 :func:`forward_kinematics` solves, from the unstretched lengths, the square system of
 the span equations of every cable and the platform equilibrium
 (:class:`ForwardSystem`) for the pose and the cable end forces, by Newton's method
-with the analytic flexibility of :mod:`catenary.elastic`.
+with the analytic flexibility of :mod:`catenary.elastic`. Over guide pulleys
+(:mod:`catenary.pulleys`) each free span ends where its cable leaves its wheel: the
+Newton solve with those exit points held fixed (the wrapped arcs taken off the
+lengths) and the wheels turned tangent to the catenaries take turns, as in the coupled
+inverse kinematics, until the wrap angles move less than
+:data:`~catenary.pulleys.WRAP_TOL`.
 """
 
 from __future__ import annotations
@@ -32,8 +37,10 @@ from .geometry import (
     cable_wrench,
     check_robot,
     equilibrium_residual,
+    planes_along,
     platform_forces,
 )
+from .pulleys import MAX_WRAP_STEPS, WRAP_TOL, WheelFrames
 from .solve import solve_forces
 from .solve.common import check_settings
 
@@ -160,16 +167,18 @@ def forward_kinematics(
     """
     if model not in ("catenary", "straight"):
         raise InvalidCableError(f'model must be "catenary" or "straight"; got model={model!r}')
-    check_robot(robot)
+    check_robot(robot, pulleys=True)
     check_settings(tol, max_iter, "tol")
     L = _check_lengths(robot, lengths)
     if model == "straight":
         return _straight(robot, L, initial_poses, wrench, objective)
-    w, EA = cable_data(robot)
+    w, EA = cable_data(robot, pulleys=True)
     if w == 0.0 and not np.isfinite(EA):
         raise InvalidCableError(
             "weightless inextensible cables do not fix the tensions: use model='straight'"
         )
+    if robot.has_pulleys:
+        return _over_pulleys(robot, L, initial_poses, wrench, (w, EA), tol, max_iter)
     if initial_poses is None:
         p = _sag_corrected_start(robot, L, w, EA, wrench)
     else:
@@ -198,7 +207,7 @@ def _straight(robot: CableRobot, L: FloatArray, initial_poses: ArrayLike | None,
     """The straight model: straight-line forward kinematics, tensions distributed."""
     fk = robot.forward_kinematics(L, initial_poses)
     sol = tension_opt.distribute(robot, fk.poses, objective, wrench=wrench)
-    planes = cable_planes(robot, fk.poses)
+    planes = _straight_planes(robot, fk.poses)
     T = sol.tensions
     H = T * planes.x / planes.chord
     V = T * planes.z / planes.chord
@@ -209,6 +218,54 @@ def _straight(robot: CableRobot, L: FloatArray, initial_poses: ArrayLike | None,
     return ForwardKinematicsResult(
         fk.poses, T, T, H, forces, status, fk.iterations, residual, fk.residual
     )
+
+
+def _straight_planes(robot: CableRobot, p: FloatArray) -> CablePlanes:
+    """The straight cables' planes: to the drawing points, or over guide pulleys to where
+    the straight cables leave their wheels."""
+    if not robot.has_pulleys:
+        return cable_planes(robot, p)
+    g = robot.cable_geometry(p, check=False)
+    return planes_along(g.position, np.asarray(g.rotation), g.arms, g.vectors)
+
+
+def _over_pulleys(robot: CableRobot, L: FloatArray, initial_poses: ArrayLike | None,
+                  wrench: ArrayLike | None, cable: tuple[float, float], tol: float,
+                  max_iter: int) -> ForwardKinematicsResult:
+    """:func:`forward_kinematics` of a robot with guide pulleys (module notes): from the
+    straight forward kinematics of the lengths (arcs and free spans), the Newton solve
+    with the exit points held fixed and the wheels turned tangent to its catenaries, in
+    turn. A pose whose wheels do not settle reads ``NOT_CONVERGED``."""
+    w, EA = cable
+    N = L.shape[0]
+    p = (robot.forward_kinematics(L).poses if initial_poses is None else
+         np.broadcast_to(robot.as_poses(initial_poses), (N, robot.dof)).copy())
+    frames = WheelFrames(robot, p)
+    h, wrap = frames.straight_h.copy(), frames.straight_wrap.copy()
+    r = frames.full(np.broadcast_to(frames.r, wrap.shape))
+    H = V = None
+    iterations = np.zeros(N, np.int64)
+    converged, moved = np.zeros(N, bool), np.full(wrap.shape, np.inf)
+    for _ in range(MAX_WRAP_STEPS):
+        T = np.zeros(L.shape) if H is None else np.hypot(H, V)
+        arcs = r * frames.full(wrap) / (1.0 if np.isinf(EA) else 1.0 + T / EA)
+        system = ForwardSystem(robot, L - arcs, wrench, w, EA,
+                               frames.planes(h, wrap).upper_ends)
+        if H is None:
+            H, V = system.start_forces(p)
+        steps, converged = _newton(system, p, H, V, tol, max_iter)
+        iterations += steps
+        frames = WheelFrames(robot, p)  # the attachment points moved with the poses
+        new_h, new = frames.tangent(frames.planes(h, wrap), H[:, frames.idx],
+                                    V[:, frames.idx], h)
+        moved = np.abs(new - wrap) + np.linalg.norm(new_h - h, axis=-1)
+        keep = np.isfinite(new)
+        wrap, h = np.where(keep, new, wrap), np.where(keep[..., None], new_h, h)
+        if not (moved > WRAP_TOL).any():
+            break
+    settled = ~(moved > WRAP_TOL).any(axis=1)
+    system = ForwardSystem(robot, L - arcs, wrench, w, EA, frames.planes(h, wrap).upper_ends)
+    return system.result(p, H, V, iterations, converged & settled)
 
 
 def _sag_corrected_start(
@@ -351,6 +408,9 @@ class ForwardSystem:
         External wrench besides gravity (N, N m).
     w, EA : float
         Weight per length (N/m) and axial stiffness (N) of the cables.
+    ends : ndarray, shape (N, m, 3), optional
+        Each cable's upper end per pose, held fixed (m): where it leaves its guide
+        pulley; default the drawing points.
 
     Attributes
     ----------
@@ -361,8 +421,9 @@ class ForwardSystem:
     """
 
     def __init__(self, robot: CableRobot, lengths: FloatArray, wrench: ArrayLike | None,
-                 w: float, EA: float) -> None:
+                 w: float, EA: float, ends: FloatArray | None = None) -> None:
         self.robot, self.lengths, self.w, self.EA = robot, lengths, w, EA
+        self.ends = ends
         N = lengths.shape[0]
         self.wrench = (None if wrench is None
                        else np.broadcast_to(as_float_array("wrench", wrench), (N, robot.dof)))
@@ -376,7 +437,7 @@ class ForwardSystem:
         Where a pose is out of reach of its cables: a straight cable carrying a share of
         the load.
         """
-        planes = cable_planes(self.robot, p)
+        planes = self.planes(slice(None), p)
         L = self.lengths
         start = solve_forces(planes.x, planes.z, L, self.w, self.EA,
                              compiled=compiled_for(planes.x.size))  # the size rule
@@ -387,6 +448,16 @@ class ForwardSystem:
             H = np.where(fallback, T0 * planes.x / planes.chord, H)
             V = np.where(fallback, T0 * planes.z / planes.chord + 0.5 * self.w * L, V)
         return H, V
+
+    def planes(self, sel: NDArray[np.intp] | slice, p: FloatArray) -> CablePlanes:
+        """The cables' planes at poses ``p`` of the batch's poses ``sel``: to the drawing
+        points, or to the upper ends held fixed."""
+        if self.ends is None:
+            return cable_planes(self.robot, p)
+        position, rotation = self.robot.frames(p)
+        arms = np.einsum("nij,mj->nmi", rotation, np.asarray(self.robot.attachments))
+        return planes_along(position, rotation, arms,
+                            self.ends[sel] - (position[:, None, :] + arms))
 
     def unscale(self, step: NDArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         """A scaled step (k, n + 2m) as pose (k, n), ``H`` (k, m) and ``V_B`` (k, m)
@@ -409,7 +480,7 @@ class ForwardSystem:
     def _evaluate(self, sel: NDArray[np.intp], p: FloatArray, H: FloatArray,
                   V: FloatArray) -> tuple[FloatArray, CablePlanes, FloatArray]:
         robot, L = self.robot, self.lengths[sel]
-        planes = cable_planes(robot, p)
+        planes = self.planes(sel, p)
         with np.errstate(all="ignore"):
             xs, zs = spans(H, V, L, self.w, self.EA)
         forces = platform_forces(planes, H, V - self.w * L)
@@ -480,7 +551,7 @@ class ForwardSystem:
                ) -> ForwardKinematicsResult:
         """The result at poses ``p`` (N, n) with end forces ``H``, ``V_B`` (N, m)."""
         L, robot = self.lengths, self.robot
-        planes = cable_planes(robot, p)
+        planes = self.planes(slice(None), p)
         xs, zs = spans(H, V, L, self.w, self.EA)
         V_A = V - self.w * L
         forces = platform_forces(planes, H, V_A)

@@ -303,3 +303,21 @@ def test_a_pulley_robot_is_drawn_by_matplotlib_and_plotly():
     pytest.importorskip("plotly")
     fig = plot_robot(robot, POSES[1], engine="plotly")
     assert sum(t.name == "guide pulleys" for t in fig.data) == 4
+
+
+@pytest.mark.parametrize("robot", [towers(), towers(1.0), tilted()],
+                         ids=["vertical axes", "1 m wheels", "tilted axes"])
+def test_sag_forward_kinematics_over_pulleys_inverts_the_coupled_model(robot):
+    """The lengths of the coupled model over pulleys give back their poses and tensions:
+    the catenaries balance the load, and each leaves its wheel tangentially."""
+    res = catenary.inverse_kinematics(robot, POSES, model="coupled", tol=1e-13)
+    assert res.success.all()
+    fk = catenary.forward_kinematics(robot, res.lengths)
+    assert (fk.status == "converged").all(), fk.status
+    np.testing.assert_allclose(fk.poses, POSES, atol=1e-7)
+    np.testing.assert_allclose(fk.tensions, res.tensions, rtol=1e-6)
+    assert fk.residual.max() < 1e-6 * robot.weight and fk.span_residual.max() < 1e-9
+    # The straight model: the straight lengths (arcs and free spans) give their poses.
+    straight = catenary.forward_kinematics(robot, robot.inverse_kinematics(POSES)[0],
+                                           model="straight")
+    np.testing.assert_allclose(straight.poses, POSES, atol=1e-8)
