@@ -243,15 +243,15 @@ def _over_pulleys(robot: CableRobot, L: FloatArray, initial_poses: ArrayLike | N
     frames = WheelFrames(robot, p)
     h, wrap = frames.straight_h.copy(), frames.straight_wrap.copy()
     r = frames.full(np.broadcast_to(frames.r, wrap.shape))
-    H = V = None
+    H = V = np.zeros(L.shape)  # the first step's start forces
     iterations = np.zeros(N, np.int64)
     converged, moved = np.zeros(N, bool), np.full(wrap.shape, np.inf)
-    for _ in range(MAX_WRAP_STEPS):
-        T = np.zeros(L.shape) if H is None else np.hypot(H, V)
+    for step in range(MAX_WRAP_STEPS):
+        T = np.hypot(H, V)
         arcs = r * frames.full(wrap) / (1.0 if np.isinf(EA) else 1.0 + T / EA)
         system = ForwardSystem(robot, L - arcs, wrench, w, EA,
                                frames.planes(h, wrap).upper_ends)
-        if H is None:
+        if step == 0:
             H, V = system.start_forces(p)
         steps, converged = _newton(system, p, H, V, tol, max_iter)
         iterations += steps
