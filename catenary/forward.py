@@ -235,11 +235,13 @@ def _over_pulleys(robot: CableRobot, L: FloatArray, initial_poses: ArrayLike | N
     """:func:`forward_kinematics` of a robot with guide pulleys (module notes): from the
     straight forward kinematics of the lengths (arcs and free spans), the Newton solve
     with the exit points held fixed and the wheels turned tangent to its catenaries, in
-    turn. A pose whose wheels do not settle reads ``NOT_CONVERGED``."""
+    turn. A pose whose wheels do not settle, or with a cable shorter than the arc it
+    wraps, reads ``NOT_CONVERGED``."""
     w, EA = cable
     N = L.shape[0]
     p = (robot.forward_kinematics(L).poses if initial_poses is None else
          np.broadcast_to(robot.as_poses(initial_poses), (N, robot.dof)).copy())
+    robot.required_wrench(p, wrench)  # the package's error for a wrench of another shape
     frames = WheelFrames(robot, p)
     h, wrap = frames.straight_h.copy(), frames.straight_wrap.copy()
     r = frames.full(np.broadcast_to(frames.r, wrap.shape))
@@ -249,8 +251,10 @@ def _over_pulleys(robot: CableRobot, L: FloatArray, initial_poses: ArrayLike | N
     for step in range(MAX_WRAP_STEPS):
         T = np.hypot(H, V)
         arcs = r * frames.full(wrap) / (1.0 if np.isinf(EA) else 1.0 + T / EA)
-        system = ForwardSystem(robot, L - arcs, wrench, w, EA,
-                               frames.planes(h, wrap).upper_ends)
+        # A cable shorter than its arc has no free span: held at a sliver, not converged.
+        short = (L - arcs <= 1e-9 * L).any(axis=1)
+        free = np.maximum(L - arcs, 1e-9 * L)
+        system = ForwardSystem(robot, free, wrench, w, EA, frames.planes(h, wrap).upper_ends)
         if step == 0:
             H, V = system.start_forces(p)
         steps, converged = _newton(system, p, H, V, tol, max_iter)
@@ -264,8 +268,8 @@ def _over_pulleys(robot: CableRobot, L: FloatArray, initial_poses: ArrayLike | N
         if not (moved > WRAP_TOL).any():
             break
     settled = ~(moved > WRAP_TOL).any(axis=1)
-    system = ForwardSystem(robot, L - arcs, wrench, w, EA, frames.planes(h, wrap).upper_ends)
-    return system.result(p, H, V, iterations, converged & settled)
+    system = ForwardSystem(robot, free, wrench, w, EA, frames.planes(h, wrap).upper_ends)
+    return system.result(p, H, V, iterations, converged & settled & ~short)
 
 
 def _sag_corrected_start(

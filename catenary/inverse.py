@@ -374,7 +374,7 @@ def _over_pulleys(robot: CableRobot, p: FloatArray, model: str, straight: Tensio
                      time.perf_counter() - start, as_problem(objective))
     if model == "coupled":
         _certify(result, robot, p, objective, wrench, w)
-    failed = ~np.isfinite(result.lengths)
+    failed = ~np.isfinite(result.lengths) | ~sag.settled  # no wheel state to report
     return replace(result, lengths=result.lengths + sag.arcs(result.tensions, EA),
                    straight_lengths=robot.inverse_kinematics(p)[0],
                    exit_points=np.where(failed[..., None], np.nan, sag.planes.upper_ends),

@@ -270,14 +270,15 @@ def _batch_cables(robot: CableRobot, p: FloatArray, planes: CablePlanes,
         if robot.has_pulleys and sagging:  # the wheels turned to the catenaries' ends
             w, EA = _cable_constants(robot)
             given = np.asarray(np.isfinite(T).all(axis=1), dtype=bool)
-            planes = settle_wraps(robot, p, np.nan_to_num(T), given, w, EA).planes
+            ends = settle_wraps(robot, p, np.nan_to_num(T), given, w, EA).planes.upper_ends
+            # A slack cable, or one too weak for a catenary: its straight exit point.
+            planes = _spans_to(planes, np.where(np.isfinite(ends), ends, planes.upper_ends))
         return planes, _catenaries_of(robot, planes, T, sagging), status
     if sagging:
         res = _solved(robot, p, model, solve)
         if res.exit_points is not None:  # the wheels as the solve left them
-            ends = np.where(np.isfinite(res.exit_points), res.exit_points, planes.upper_ends)
-            planes = planes_along(planes.position, planes.rotation, planes.arms,
-                                  ends - (planes.position[:, None] + planes.arms))
+            planes = _spans_to(planes, np.where(np.isfinite(res.exit_points),
+                                                res.exit_points, planes.upper_ends))
         cables = _solved_catenaries(robot, res, wheels_at(robot, planes))
         return planes, cables, np.asarray(res.status, dtype=str)
     options = {k: v for k, v in solve.items() if k not in ("objective", "backend", "wrench")}
@@ -286,6 +287,12 @@ def _batch_cables(robot: CableRobot, p: FloatArray, planes: CablePlanes,
     T = np.where(straight.success[:, None], straight.tensions, np.nan)
     return planes, _catenaries_of(robot, planes, T, False), np.asarray(straight.status,
                                                                         dtype=str)
+
+
+def _spans_to(planes: CablePlanes, ends: FloatArray) -> CablePlanes:
+    """The planes of ``planes``' cables with their upper ends moved to ``ends`` (N, m, 3)."""
+    return planes_along(planes.position, planes.rotation, planes.arms,
+                        ends - (planes.position[:, None] + planes.arms))
 
 
 def robot_scene(

@@ -321,3 +321,32 @@ def test_sag_forward_kinematics_over_pulleys_inverts_the_coupled_model(robot):
     straight = catenary.forward_kinematics(robot, robot.inverse_kinematics(POSES)[0],
                                            model="straight")
     np.testing.assert_allclose(straight.poses, POSES, atol=1e-8)
+
+
+def test_forward_kinematics_over_pulleys_reports_what_it_cannot_solve():
+    """A cable shorter than the arc it wraps has no free span: that pose reads
+    not_converged and the others are solved, as without pulleys; a wrench of another
+    shape is the package's error."""
+    robot = towers()
+    L = catenary.inverse_kinematics(robot, POSES[:2], "coupled", tol=1e-13).lengths
+    L[1, 0] = 0.4
+    fk = catenary.forward_kinematics(robot, L)
+    assert list(fk.status) == ["converged", "not_converged"]
+    np.testing.assert_allclose(fk.poses[0], POSES[0], atol=1e-7)
+    with pytest.raises(to.InvalidInputError, match="wrench"):
+        catenary.forward_kinematics(robot, L, wrench=np.zeros((3, 3)))
+
+
+@pytest.mark.parametrize("slack", [0.0, 1.0])
+def test_a_view_of_given_tensions_draws_a_slack_cable_over_its_pulley(slack):
+    """Given tensions whose catenary does not exist (no tension, or too little for the
+    span) leave that cable at its straight exit point, drawn slack or infeasible, as
+    without pulleys."""
+    from catenary.viz import robot_scenes
+
+    robot = towers()
+    T = [3000.0, slack, 3000.0, 3000.0]
+    scene = robot_scenes(robot, POSES[1], T, "thesis")[0]
+    plain = robot_scenes(to.presets.algae_harvester(), POSES[1], T, "thesis")[0]
+    np.testing.assert_array_equal(scene.state, plain.state)
+    assert scene.state[1] in ("slack", "infeasible") and np.isfinite(scene.curves).all()
