@@ -126,8 +126,7 @@ def _covered(robot: CableRobot, problem: Any) -> NDArray | None:
     from tension_opt.kernels.closed_form import HEADER
 
     # Bounds or a reference per pose: the packed problem holds one row for every pose.
-    if problem is None or problem.is_sequential or any(
-            np.ndim(getattr(problem, name)) == 2 for name in ("t_min", "t_max", "reference")):
+    if problem is None or problem.is_sequential or problem.has_pose_rows:
         return None
     data = pack_certified(robot, problem, 0.0)
     if data is None or data[7] != 0.0:  # another objective, or a min-max term

@@ -156,9 +156,9 @@ def _distribute_batch(robot: CableRobot, p: NDArray, problem: TensionProblem,
         solved = np.flatnonzero(raw.status == Status.OPTIMAL)
         last = raw.tensions[solved[-1]].copy() if len(solved) else prev
     else:
-        plan = None if not (certified and isinstance(chosen, ClosedFormBackend)) or any(
-            np.ndim(getattr(problem, name)) == 2 for name in ("t_min", "t_max", "reference")
-        ) else plan_of(robot, problem, chosen, form, options.get("accuracy"))
+        plan = None if not (certified and isinstance(chosen, ClosedFormBackend)
+                            ) or problem.has_pose_rows else plan_of(
+            robot, problem, chosen, form, options.get("accuracy"))
         if plan is not None:
             return _certified_whole(robot, p, problem, backend, wrench, options, plan,
                                     form), last
@@ -228,9 +228,8 @@ def _distribute_chunks(robot: CableRobot, p: NDArray, problem: TensionProblem,
         except InvalidInputError as error:
             raise renumbered(error, poses) from None
 
-    rows = any(np.ndim(getattr(problem, name)) == 2 for name in per_pose)  # bounds per pose
-    plan = None if rows else certified_plan(robot, problem, backend,
-                                                options.get("accuracy"))
+    plan = None if problem.has_pose_rows else certified_plan(robot, problem, backend,
+                                                             options.get("accuracy"))
     if plan is not None:
         batch = CertifiedBatch(plan, p, None if w_rows is None else w_rows(slice(None)),
                                out)

@@ -88,7 +88,7 @@ def timing_tensions(
     if custom_bounds:
         problem = problem.with_(t_min=stages.lb, t_max=stages.ub)
     plan = None
-    rows = any(np.ndim(getattr(problem, name)) == 2 for name in ("t_min", "t_max", "reference"))
+    rows = problem.has_pose_rows
     if (
         certified
         and own_structure

@@ -215,6 +215,11 @@ class TensionProblem:
         return bool(self.smoothing) or self.rate_limit is not None
 
     @property
+    def has_pose_rows(self) -> bool:
+        """True if bounds or the reference are given per pose (a row each, (N, m))."""
+        return any(np.ndim(getattr(self, name)) == 2 for name in ("t_min", "t_max", "reference"))
+
+    @property
     def is_linear(self) -> bool:
         """True if the problem is an LP (its optimum may be non-unique)."""
         return self.objective.linear and not self.smoothing
