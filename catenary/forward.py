@@ -39,6 +39,7 @@ from .geometry import (
     equilibrium_residual,
     planes_along,
     platform_forces,
+    straight_planes,
 )
 from .pulleys import MAX_WRAP_STEPS, WRAP_TOL, WheelFrames
 from .solve import solve_forces
@@ -207,7 +208,7 @@ def _straight(robot: CableRobot, L: FloatArray, initial_poses: ArrayLike | None,
     """The straight model: straight-line forward kinematics, tensions distributed."""
     fk = robot.forward_kinematics(L, initial_poses)
     sol = tension_opt.distribute(robot, fk.poses, objective, wrench=wrench)
-    planes = _straight_planes(robot, fk.poses)
+    planes = straight_planes(robot, fk.poses)
     T = sol.tensions
     H = T * planes.x / planes.chord
     V = T * planes.z / planes.chord
@@ -218,15 +219,6 @@ def _straight(robot: CableRobot, L: FloatArray, initial_poses: ArrayLike | None,
     return ForwardKinematicsResult(
         fk.poses, T, T, H, forces, status, fk.iterations, residual, fk.residual
     )
-
-
-def _straight_planes(robot: CableRobot, p: FloatArray) -> CablePlanes:
-    """The straight cables' planes: to the drawing points, or over guide pulleys to where
-    the straight cables leave their wheels."""
-    if not robot.has_pulleys:
-        return cable_planes(robot, p)
-    g = robot.cable_geometry(p, check=False)
-    return planes_along(g.position, np.asarray(g.rotation), g.arms, g.vectors)
 
 
 def _over_pulleys(robot: CableRobot, L: FloatArray, initial_poses: ArrayLike | None,

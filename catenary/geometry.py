@@ -98,6 +98,11 @@ class CablePlanes:
         return (self.position[:, None, :] + self.arms + self.x[..., None] * self.e_h
                 + self.z[..., None] * E_Z)
 
+    def with_upper_ends(self, ends: FloatArray) -> CablePlanes:
+        """These cables' planes with their upper ends moved to ``ends`` (N, m, 3) (m)."""
+        return planes_along(self.position, self.rotation, self.arms,
+                            ends - (self.position[:, None, :] + self.arms))
+
 
 def cable_planes(robot: CableRobot, poses: NDArray) -> CablePlanes:
     """Planes of the cables of a batch of poses.

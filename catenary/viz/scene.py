@@ -35,12 +35,12 @@ from ..geometry import (
     CablePlanes,
     check_robot,
     extreme_tensions,
-    planes_along,
+    straight_planes,
 )
 from ..geometry import taut_catenaries as solve_taut
 from ..inverse import InverseKinematicsResult, inverse_kinematics
 from ..pulleys import settle_wraps
-from .wheels import Wheels, straight_spans, wheels_at
+from .wheels import Wheels, wheels_at
 
 __all__ = [
     "MODELS",
@@ -245,25 +245,33 @@ def robot_scenes(
             f"samples must be an integer >= 2 (points along a cable); got samples={samples!r}"
         )
     p = robot.as_poses(poses)
-    planes = straight_spans(robot, p)
+    planes = straight_planes(robot, p)
+    # The straight lengths: chords, or over pulleys the wrapped arcs with them.
+    straight = (robot.cable_geometry(p, check=False).total_lengths if robot.has_pulleys
+                else planes.chord)
     sagging = (
         model != "straight"
         and robot.cable is not None
         and (robot.cable.weight_per_length(robot.g) > 0 or np.isfinite(robot.cable.EA))
     )
     solve = dict(wrench=wrench, objective=objective, backend=backend, **options)
-    planes, cables, status = _batch_cables(robot, p, planes, tensions, model, sagging, solve)
-    wheels = wheels_at(robot, planes)
-    return [_scene(robot, p, planes, cables, status, model, samples, k, wheels)
-            for k in range(len(p))]
+    planes, wheels, cables, status = _batch_cables(robot, p, planes, tensions, model,
+                                                   sagging, solve)
+    # The unstretched arcs on the wheels, once for the batch.
+    arcs = (np.zeros(planes.x.shape) if wheels is None
+            else wheels.arcs(np.nan_to_num(cables.tensions), cables.EA))
+    return [_scene(robot, p, planes, cables, status, model, samples, k, wheels,
+                   (straight[k], arcs[k])) for k in range(len(p))]
 
 
 def _batch_cables(robot: CableRobot, p: FloatArray, planes: CablePlanes,
                   tensions: ArrayLike | None, model: str, sagging: bool,
-                  solve: dict[str, Any]) -> tuple[CablePlanes, _Cables, NDArray[np.str_]]:
-    """The free spans' planes, the cables and each pose's status of a batch: catenaries
-    carrying the given ``tensions``, the sag model's own, or straight cables with the
-    distribution's tensions (``planes``: the straight free spans)."""
+                  solve: dict[str, Any]
+                  ) -> tuple[CablePlanes, Wheels | None, _Cables, NDArray[np.str_]]:
+    """The free spans' planes, the guide pulleys (:func:`wheels_at`), the cables and each
+    pose's status of a batch: catenaries carrying the given ``tensions``, the sag model's
+    own, or straight cables with the distribution's tensions (``planes``: the straight
+    free spans)."""
     if tensions is not None:
         T = _check_tensions(tensions, len(p), robot.m)
         status = np.where(np.isnan(T).any(axis=1), Status.INFEASIBLE, Status.OPTIMAL)
@@ -272,27 +280,24 @@ def _batch_cables(robot: CableRobot, p: FloatArray, planes: CablePlanes,
             given = np.asarray(np.isfinite(T).all(axis=1), dtype=bool)
             ends = settle_wraps(robot, p, np.nan_to_num(T), given, w, EA).planes.upper_ends
             # A slack cable, or one too weak for a catenary: its straight exit point.
-            planes = _spans_to(planes, np.where(np.isfinite(ends), ends, planes.upper_ends))
-        return planes, _catenaries_of(robot, planes, T, sagging), status
+            planes = planes.with_upper_ends(np.where(np.isfinite(ends), ends,
+                                                     planes.upper_ends))
+        return planes, wheels_at(robot, planes), _catenaries_of(robot, planes, T,
+                                                                 sagging), status
     if sagging:
         res = _solved(robot, p, model, solve)
         if res.exit_points is not None:  # the wheels as the solve left them
-            planes = _spans_to(planes, np.where(np.isfinite(res.exit_points),
-                                                res.exit_points, planes.upper_ends))
-        cables = _solved_catenaries(robot, res, wheels_at(robot, planes))
-        return planes, cables, np.asarray(res.status, dtype=str)
+            planes = planes.with_upper_ends(np.where(np.isfinite(res.exit_points),
+                                                     res.exit_points, planes.upper_ends))
+        wheels = wheels_at(robot, planes)
+        return planes, wheels, _solved_catenaries(robot, res, wheels), np.asarray(
+            res.status, dtype=str)
     options = {k: v for k, v in solve.items() if k not in ("objective", "backend", "wrench")}
     straight = tension_opt.distribute(robot, p, solve["objective"], solve["backend"],
                                       wrench=solve["wrench"], **options)
     T = np.where(straight.success[:, None], straight.tensions, np.nan)
-    return planes, _catenaries_of(robot, planes, T, False), np.asarray(straight.status,
-                                                                        dtype=str)
-
-
-def _spans_to(planes: CablePlanes, ends: FloatArray) -> CablePlanes:
-    """The planes of ``planes``' cables with their upper ends moved to ``ends`` (N, m, 3)."""
-    return planes_along(planes.position, planes.rotation, planes.arms,
-                        ends - (planes.position[:, None] + planes.arms))
+    return planes, wheels_at(robot, planes), _catenaries_of(robot, planes, T, False), \
+        np.asarray(straight.status, dtype=str)
 
 
 def robot_scene(
@@ -497,18 +502,17 @@ def _scene(
     samples: int,
     k: int,
     wheels: Wheels | None,
+    lengths_of: tuple[FloatArray, FloatArray],
 ) -> RobotScene:
-    """The scene of pose ``k`` of a solved batch (over guide pulleys, ``wheels``)."""
+    """The scene of pose ``k`` of a solved batch (over guide pulleys, ``wheels``;
+    ``lengths_of``: the pose's straight lengths and unstretched wrapped arcs (m,))."""
+    straight, arcs = lengths_of
     attach = planes.position[k] + planes.arms[k]
     anchors = np.asarray(robot.anchors, dtype=float)
     exits = planes.upper_ends[k]
     curves, closure = _curves(planes, k, cables, attach, exits, samples)
-    arcs = np.zeros(robot.m)
-    straight = planes.chord[k].copy()
     if wheels is not None:  # the wrapped arcs follow the free spans
         curves = np.concatenate([curves, wheels.arc_points(k)[:, 1:]], axis=1)
-        arcs = wheels.arcs(np.nan_to_num(cables.tensions), cables.EA)[k]
-        straight = robot.cable_geometry(poses[k:k + 1], check=False).total_lengths[0]
     curved = cables.curved[k]
     with np.errstate(invalid="ignore"):
         V_B = cables.V_A[k] + cables.w * cables.L0[k]
@@ -536,7 +540,7 @@ def _scene(
         lowest,
         highest,
         lengths,
-        straight,
+        straight.copy(),
         sag,
         closure,
         _states(robot, cables, k, lowest, highest),

@@ -17,9 +17,9 @@ from numpy.typing import NDArray
 from tension_opt import CableRobot
 from tension_opt.robot.pulleys import pulley_arrays, swivel_basis
 
-from ..geometry import CablePlanes, cable_planes, planes_along
+from ..geometry import CablePlanes
 
-__all__ = ["ARC_SAMPLES", "WHEEL_SAMPLES", "Wheels", "straight_spans", "wheels_at"]
+__all__ = ["ARC_SAMPLES", "WHEEL_SAMPLES", "Wheels", "wheels_at"]
 
 FloatArray = NDArray[np.float64]
 
@@ -65,15 +65,6 @@ class Wheels:
         out = self.along(k, np.broadcast_to(phi, (len(self.radii), WHEEL_SAMPLES)))
         out[self.radii == 0] = np.nan
         return out
-
-
-def straight_spans(robot: CableRobot, p: FloatArray) -> CablePlanes:
-    """The straight cables' planes: to the drawing points, or over guide pulleys to where
-    the straight cables leave their wheels (NaN where a pulley has no exit point)."""
-    if not robot.has_pulleys:
-        return cable_planes(robot, p)
-    g = robot.cable_geometry(p, check=False)
-    return planes_along(g.position, np.asarray(g.rotation), g.arms, g.vectors)
 
 
 def wheels_at(robot: CableRobot, planes: CablePlanes) -> Wheels | None:
