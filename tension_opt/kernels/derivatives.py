@@ -83,6 +83,24 @@ def _left_coefficients(kind: int, pose: NDArray) -> tuple[float, float]:
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _column_step(r: tuple, u: tuple, L: float, dr: tuple, dv: tuple
+                 ) -> tuple[float, float, float, float, float, float]:
+    """The step of a column ``[u; r x u]`` (force, moment) of a cable of length ``L``
+    whose arm steps by ``dr`` and whose vector by ``dv``: ``du = (dv - u (u . dv)) / L``
+    and ``dr x u + r x du``."""
+    r0, r1, r2 = r
+    u0, u1, u2 = u
+    dr0, dr1, dr2 = dr
+    dv0, dv1, dv2 = dv
+    ud = u0 * dv0 + u1 * dv1 + u2 * dv2
+    du0, du1, du2 = (dv0 - u0 * ud) / L, (dv1 - u1 * ud) / L, (dv2 - u2 * ud) / L
+    m0 = (dr1 * u2 - dr2 * u1) + (r1 * du2 - r2 * du1)
+    m1 = (dr2 * u0 - dr0 * u2) + (r2 * du0 - r0 * du2)
+    m2 = (dr0 * u1 - dr1 * u0) + (r0 * du1 - r1 * du0)
+    return du0, du1, du2, m0, m1, m2
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def point_column(kind: int, anchors: NDArray, attachments: NDArray, pose: NDArray,
                  R: tuple, i: int, c: int, attachment: bool, out: NDArray) -> None:
     """``out`` (n,): the derivative of column ``i`` of the structure matrix by coordinate
@@ -101,11 +119,8 @@ def point_column(kind: int, anchors: NDArray, attachments: NDArray, pose: NDArra
         dv0, dv1, dv2 = -dr0, -dr1, -dr2
     else:
         dv0, dv1, dv2 = 1.0 if c == 0 else 0.0, 1.0 if c == 1 else 0.0, 1.0 if c == 2 else 0.0
-    ud = u0 * dv0 + u1 * dv1 + u2 * dv2
-    du0, du1, du2 = (dv0 - u0 * ud) / L, (dv1 - u1 * ud) / L, (dv2 - u2 * ud) / L
-    m0 = (dr1 * u2 - dr2 * u1) + (r1 * du2 - r2 * du1)
-    m1 = (dr2 * u0 - dr0 * u2) + (r2 * du0 - r0 * du2)
-    m2 = (dr0 * u1 - dr1 * u0) + (r0 * du1 - r1 * du0)
+    du0, du1, du2, m0, m1, m2 = _column_step((r0, r1, r2), (u0, u1, u2), L,
+                                             (dr0, dr1, dr2), (dv0, dv1, dv2))
     for k in range(out.size):
         out[k] = _kept(kind, k, du0, du1, du2, m0, m1, m2)
     if (anchors.size | attachments.size | pose.size | out.size) < 0:
@@ -137,12 +152,9 @@ def pose_terms(kind: int, anchors: NDArray, attachments: NDArray, com: NDArray,
         for j in range(n):
             t0, t1, t2, w0, w1, w2 = _step(kind, j, pose, a, b)
             dr0, dr1, dr2 = w1 * r2 - w2 * r1, w2 * r0 - w0 * r2, w0 * r1 - w1 * r0
-            dv0, dv1, dv2 = -t0 - dr0, -t1 - dr1, -t2 - dr2
-            ud = u0 * dv0 + u1 * dv1 + u2 * dv2
-            du0, du1, du2 = (dv0 - u0 * ud) / L, (dv1 - u1 * ud) / L, (dv2 - u2 * ud) / L
-            m0 = (dr1 * u2 - dr2 * u1) + (r1 * du2 - r2 * du1)
-            m1 = (dr2 * u0 - dr0 * u2) + (r2 * du0 - r0 * du2)
-            m2 = (dr0 * u1 - dr1 * u0) + (r0 * du1 - r1 * du0)
+            du0, du1, du2, m0, m1, m2 = _column_step(
+                (r0, r1, r2), (u0, u1, u2), L, (dr0, dr1, dr2),
+                (-t0 - dr0, -t1 - dr1, -t2 - dr2))
             if kind == 3:  # all six rows, written out (a tuple read at a loop index
                 Ti = T[i]  # is a store and a load per entry)
                 dAT[0, j] += du0 * Ti
