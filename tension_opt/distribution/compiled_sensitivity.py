@@ -57,10 +57,8 @@ def compiled_jacobian(solution: Any, wrt: str, robot: Any, poses: ArrayLike | No
     arrays = _arrays(solution, robot, poses, wrench, m, n, N)
     if arrays is None:
         return None
-    code = _CODES[wrt]
-    if wrt.startswith("t_") and type(solution.problem.objective) is Centered:
-        code += 4  # MOVES_TARGET: the centred cost follows the bounds
-    J, codes = _run(data, arrays, code, m, n, N)
+    J, codes = _run(data, arrays, _code(wrt, type(solution.problem.objective) is Centered),
+                    m, n, N)
     return (J.reshape(N, m, m, 3) if wrt.endswith("points") else J), codes
 
 
@@ -73,7 +71,7 @@ class RealtimeJacobian:
     for every cable."""
 
     def __init__(self, data: NDArray, m: int, n: int, work_size: int,
-                 moves_target: bool = False) -> None:
+                 centred: bool = False) -> None:
         from tension_opt.kernels.distributor import multipliers_offset
         from tension_opt.kernels.first_use import announce
         from tension_opt.kernels.launch import entry_point
@@ -81,7 +79,7 @@ class RealtimeJacobian:
 
         announce("Jacobians", jacobian_one)
         self.data, self.m, self.n, self.columns = data, m, n, columns
-        self.moves_target = 4 if moves_target else 0  # the kernel's MOVES_TARGET
+        self.centred = centred  # the centred cost follows the bounds
         self.offset = multipliers_offset(m, n)
         self.floats, self.shape = int(work_floats(m, n)), (m, n)
         # The machine code for exactly the types the distributor passes (its own data,
@@ -102,22 +100,25 @@ class RealtimeJacobian:
     def __call__(self, pose: NDArray, T: NDArray, local: Any, unique: bool,
                  wrt: str) -> tuple[NDArray, int]:
         """``(J (m, n); (m, m) by a bound; (m, m, 3) by the points, status code)`` of the
-        pose just solved
-        (contiguous float vectors
-        ``pose`` and ``T``; ``local``: the distributor's thread-local state, whose
-        ``work`` the real-time kernel wrote and which keeps this thread's buffers)."""
+        pose just solved (contiguous float vectors ``pose`` and ``T``; ``local``: the
+        distributor's thread-local state, whose ``work`` the real-time kernel wrote and
+        which keeps this thread's buffers)."""
         try:
             floats, free = local.jacobian_work
         except AttributeError:  # this thread's first call
             floats, free = np.empty(self.floats), np.empty(self.m, dtype=np.int64)
             local.jacobian_work = floats, free
-        what = _CODES[wrt]
-        if what in (2, 3):  # a bound: the centred cost follows it
-            what += self.moves_target
+        what = _code(wrt, self.centred)
         J: NDArray = np.empty((self.m, self.columns(what, self.m, self.n)))
         code = self.kernel(self.data, pose, T, local.work, self.offset, unique, what, J,
                            floats, free)
-        return (J.reshape(self.m, self.m, 3) if what >= 8 else J), code  # points: (m, m, 3)
+        return (J.reshape(self.m, self.m, 3) if wrt.endswith("points") else J), code
+
+
+def _code(wrt: str, centred: bool) -> int:
+    """The kernel's code of ``wrt``; by a bound of the centred objective, with the flag
+    (``MOVES_TARGET``, 4) of a cost that follows the bounds."""
+    return _CODES[wrt] + (4 if centred and wrt in ("t_min", "t_max") else 0)
 
 
 def _covered(robot: CableRobot, problem: Any) -> NDArray | None:
